@@ -1,0 +1,17 @@
+# Every dependency comes from Debian's packages (./setup.sh installs them). Nothing is downloaded.
+find_package(glm REQUIRED CONFIG)
+find_package(nlohmann_json 3.10 REQUIRED CONFIG)
+find_package(OpenMP REQUIRED COMPONENTS CXX)
+find_package(Threads REQUIRED)
+
+# stb: Debian's libstb-dev ships the headers under include/stb and the compiled implementation as libstb.
+find_path(STB_INCLUDE_DIR stb/stb_image_write.h REQUIRED)
+find_library(STB_LIBRARY NAMES stb REQUIRED)
+add_library(raylife_stb INTERFACE)
+target_include_directories(raylife_stb SYSTEM INTERFACE ${STB_INCLUDE_DIR})
+target_link_libraries(raylife_stb INTERFACE ${STB_LIBRARY})
+
+if(RAYLIFE_BUILD_TESTS)
+  find_package(Catch2 2 REQUIRED CONFIG)
+  include(Catch)
+endif()

@@ -1,0 +1,68 @@
+/// @file math.h
+/// @brief GLM aliases, the renderer's scalar type and every named numerical constant raylife uses.
+///
+/// No other file holds a bare epsilon: tolerances live here, each with the reason for its value.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace raylife {
+
+/// The renderer's scalar type: `double` unless the build sets RAYLIFE_REAL_IS_FLOAT (`-DRAYLIFE_REAL=float`).
+#ifdef RAYLIFE_REAL_IS_FLOAT
+using Real = float;
+#else
+using Real = double;
+#endif
+
+/// A 3-vector of scalar T (a point, a direction or a colour).
+template <class T> using TVec3 = glm::vec<3, T, glm::defaultp>;
+/// A point or direction in world space, in scene units.
+using Vec3 = TVec3<Real>;
+/// Linear RGB radiance (or reflectance, in [0, 1] per channel, where a material says so).
+using Color = TVec3<Real>;
+/// A 2-vector of the renderer's scalar (image-plane positions, 2-D samples).
+using Vec2 = glm::vec<2, Real, glm::defaultp>;
+
+/// π in the renderer's scalar.
+inline constexpr Real kPi = std::numbers::pi_v<Real>;
+/// 1/π in the renderer's scalar.
+inline constexpr Real kInvPi = std::numbers::inv_pi_v<Real>;
+/// +∞ in the renderer's scalar: the tmax of a ray that is not bounded.
+inline constexpr Real kInfinity = std::numeric_limits<Real>::infinity();
+
+/// Machine epsilon of T halved: the unit roundoff u, the bound on the relative error of one IEEE operation.
+template <class T> inline constexpr T kUnitRoundoff = std::numeric_limits<T>::epsilon() * T(0.5);
+
+/// γ(n) = n·u / (1 − n·u), the bound on the relative error of n chained floating-point operations
+/// (Higham, "Accuracy and Stability of Numerical Algorithms", §3.1; pbrt uses the same bound).
+template <class T> constexpr T gamma(int n)
+{
+  return T(n) * kUnitRoundoff<T> / (T(1) - T(n) * kUnitRoundoff<T>);
+}
+
+/// A shadow ray towards a point light stops this fraction short of it, so that a light placed exactly on a
+/// surface is not shadowed by that surface. Relative, so it does not depend on scene scale.
+inline constexpr Real kShadowRayShorten = Real(1e-4);
+
+/// The camera refuses an up vector whose sine with the view direction is below this: the basis would be
+/// dominated by rounding (u = up × w loses all its significant bits as |up × w| approaches the unit roundoff).
+inline constexpr Real kMinUpSine = Real(1e-6);
+
+/// Luminance of linear Rec.709 RGB (used to weight colours, e.g. Russian roulette, light power).
+inline Real luminance(const Color& c) { return Real(0.2126) * c.r + Real(0.7152) * c.g + Real(0.0722) * c.b; }
+
+/// Largest component of a vector.
+template <class T> inline T maxComponent(const TVec3<T>& v) { return std::fmax(v.x, std::fmax(v.y, v.z)); }
+
+/// True when every component is finite (neither NaN nor ±∞).
+template <class T> inline bool isFinite(const TVec3<T>& v)
+{
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+} // namespace raylife

@@ -1,0 +1,43 @@
+/// @file options.h
+/// @brief The command line every chapter shares (DESIGN.md, section 4), parsed into RenderOptions.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace raylife {
+
+/// What the command line asked for. Zero or empty means "the chapter's or the scene's default".
+struct RenderOptions {
+  std::string scenePath;            ///< Scene file; empty: the chapter's default scene.
+  std::vector<std::string> outputs; ///< Up to two image files (.png and/or .pfm); empty: out/<binary>.png.
+  std::string variancePath;         ///< --variance: PFM of each pixel's variance of the mean; empty: none.
+  std::string statsPath;            ///< --stats: a JSON file of the render's figures; empty: none.
+  int width = 0;                    ///< --width, pixels; 0: the scene's.
+  int height = 0;                   ///< --height, pixels; 0: the scene's.
+  std::optional<int> spp;           ///< --spp: samples per pixel, ≥ 1.
+  std::optional<double> seconds;    ///< --time: render until this many seconds have passed, > 0.
+  std::uint64_t seed = 0;           ///< --seed.
+  int threads = 0;                  ///< --threads, ≥ 1; 0: every core.
+  std::optional<int> maxDepth;      ///< --max-depth: longest path in bounces, ≥ 0.
+  bool quiet = false;               ///< --quiet: no progress bar, no summary line.
+  bool help = false;                ///< --help was given.
+};
+
+/// A fault in the command line. what() says which argument and what is wrong.
+class UsageError : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Parses argv[1..argc). @throws UsageError on an unknown flag, a missing or malformed value, a value out of
+/// range, more than one scene, more than two outputs, or both --spp and --time.
+RenderOptions parseCommandLine(int argc, const char* const* argv);
+
+/// The --help text for a binary called `binary` whose default scene is `defaultScene`.
+std::string usageText(const std::string& binary, const std::string& defaultScene);
+
+} // namespace raylife

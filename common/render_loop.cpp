@@ -1,0 +1,337 @@
+#include "render_loop.h"
+
+#include "image_io.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include <unistd.h>
+
+#ifndef RAYLIFE_SCENE_DIR
+#error "RAYLIFE_SCENE_DIR must be defined by the build"
+#endif
+
+namespace raylife {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+constexpr int kTileSize = 16;
+
+struct Tile {
+  int x0, y0, x1, y1;
+};
+
+std::vector<Tile> makeTiles(int width, int height)
+{
+  std::vector<Tile> tiles;
+  for (int y = 0; y < height; y += kTileSize)
+    for (int x = 0; x < width; x += kTileSize)
+      tiles.push_back({x, y, std::min(x + kTileSize, width), std::min(y + kTileSize, height)});
+  return tiles;
+}
+
+// Where sample s of a pixel falls inside it, in [0, 1)².
+Vec2 pixelOffset(PixelSampling mode, std::uint64_t s, std::optional<int> spp, Sampler& sampler)
+{
+  if (mode == PixelSampling::Centre)
+    return Vec2(Real(0.5));
+  const Vec2 jitter = sampler.next2D();
+  const int n = spp ? int(std::sqrt(double(*spp))) : 1;
+  if (n <= 1 || s >= std::uint64_t(n) * std::uint64_t(n))
+    return jitter;
+  // Stratified: cell (s mod n, s div n) of an n × n grid, jittered inside the cell.
+  const Real cx = Real(s % std::uint64_t(n)), cy = Real(s / std::uint64_t(n));
+  return Vec2((cx + jitter.x) / Real(n), (cy + jitter.y) / Real(n));
+}
+
+void drawProgress(double fraction, double elapsed)
+{
+  const int width = 40;
+  const int filled = int(std::clamp(fraction, 0.0, 1.0) * width);
+  std::fprintf(stderr, "\r[%.*s%*s] %3d%%  %.1f s ", filled, "########################################",
+               width - filled, "", int(fraction * 100), elapsed);
+  std::fflush(stderr);
+}
+
+} // namespace
+
+RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                    const TraceFunction& trace)
+{
+  const int width = camera.width(), height = camera.height();
+  RenderResult result{Film(width, height)};
+  const std::vector<Tile> tiles = makeTiles(width, height);
+  const int threads = settings.threads > 0 ? settings.threads : omp_get_max_threads();
+  const int passes = settings.spp ? *settings.spp : (settings.seconds ? 0 : 1);
+
+  const auto start = Clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+  double lastDraw = -1;
+
+  for (int pass = 0;; ++pass) {
+    if (passes > 0 && pass >= passes)
+      break;
+    if (pass > 0 && settings.seconds && elapsed() >= *settings.seconds)
+      break;
+    if (pass > 0 && settings.stop && settings.stop->load()) {
+      result.interrupted = true;
+      break;
+    }
+    std::uint64_t rays = 0, bad = 0;
+    std::atomic<int> tilesDone{0};
+#pragma omp parallel num_threads(threads) reduction(+ : rays, bad)
+    {
+      const std::uint64_t raysBefore = rayCount();
+#pragma omp for schedule(dynamic, 1)
+      for (std::size_t t = 0; t < tiles.size(); ++t) {
+        const Tile& tile = tiles[t];
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x) {
+            // One pixel sample: its own random numbers, a film position, the chapter's estimate.
+            Sampler sampler(settings.seed, x, y, std::uint64_t(pass));
+            const Vec2 offset = pixelOffset(settings.pixelSampling, std::uint64_t(pass), settings.spp, sampler);
+            const Ray ray = camera.ray(Vec2(Real(x), Real(y)) + offset);
+            Color L = trace(scene, ray, sampler, settings.maxDepth);
+            // Guard the film: a NaN, infinite or negative sample is counted and replaced by black.
+            if (!isFinite(L) || L.r < 0 || L.g < 0 || L.b < 0) {
+              ++bad;
+              L = Color(0);
+            }
+            result.film.add(x, y, L);
+          }
+        const int done = ++tilesDone;
+        if (settings.progress && omp_get_thread_num() == 0) {
+          const double now = elapsed();
+          if (now - lastDraw > 0.1) {
+            lastDraw = now;
+            const double fraction = passes > 0 ? (pass + double(done) / double(tiles.size())) / passes
+                                               : now / *settings.seconds;
+            drawProgress(fraction, now);
+          }
+        }
+      }
+      rays += rayCount() - raysBefore;
+    }
+    result.rays += rays;
+    result.badSamples += bad;
+    result.spp = pass + 1;
+  }
+  result.seconds = elapsed();
+  if (settings.progress) {
+    drawProgress(1.0, result.seconds);
+    std::fprintf(stderr, "\n");
+  }
+  return result;
+}
+
+std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven)
+{
+  std::vector<std::string> parts;
+  auto plural = [](std::size_t n, const std::string& one, const std::string& many) {
+    return std::to_string(n) + " " + (n == 1 ? one : many);
+  };
+  if (!(uses & kUsesSpheres))
+    parts.push_back(plural(scene.spheres.size(), "sphere", "spheres"));
+  if (!(uses & kUsesColors) && (uses & kUsesSpheres))
+    parts.push_back("material colours");
+  if (!(uses & kUsesPointLights) && !scene.lights.empty())
+    parts.push_back(plural(scene.lights.size(), "point light", "point lights"));
+  if (!(uses & kUsesAmbient) && scene.ambient != Color(0))
+    parts.push_back("the ambient term");
+  if (!(uses & kUsesBackground) && scene.background != Color(0))
+    parts.push_back("the background");
+  if (uses & kUsesSpheres) {
+    std::size_t emissive = 0, asDiffuse = 0;
+    for (const Material& m : scene.materials) {
+      emissive += m.isEmissive() && !(uses & kUsesEmission);
+      asDiffuse += (m.type == MaterialType::Mirror && !(uses & kUsesMirror)) ||
+                   (m.type == MaterialType::Glass && !(uses & kUsesGlass)) ||
+                   (m.type == MaterialType::Glossy && !(uses & kUsesGlossy));
+    }
+    if (emissive)
+      parts.push_back("the emission of " + plural(emissive, "material", "materials"));
+    if (asDiffuse)
+      parts.push_back("the reflection and refraction of " + plural(asDiffuse, "material", "materials") +
+                      " (shaded as diffuse)");
+  }
+  if (maxDepthGiven && !(uses & kUsesMaxDepth))
+    parts.push_back("--max-depth (nothing here recurses)");
+  std::string out;
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    out += (i == 0 ? "" : (i + 1 == parts.size() ? " and " : ", ")) + parts[i];
+  return out;
+}
+
+std::string sceneDirectory() { return RAYLIFE_SCENE_DIR; }
+
+namespace {
+
+// Ctrl-C once: finish the pass in flight, write what there is. Twice: stop at once, write nothing.
+std::atomic<bool> gStopRequested{false};
+
+extern "C" void onInterrupt(int)
+{
+  if (gStopRequested.exchange(true))
+    _exit(130);
+}
+
+// Checks, before any work, that each output can be written: a known extension and a writable folder.
+void checkOutput(const std::string& path)
+{
+  if (!isImagePath(path))
+    throw ImageIoError(path + ": unknown image format (the output must end in .png or .pfm)");
+  namespace fs = std::filesystem;
+  fs::path folder = fs::path(path).parent_path();
+  if (folder.empty())
+    folder = ".";
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec))
+    throw ImageIoError("cannot write " + path + ": the folder " + folder.string() + " does not exist");
+  if (::access(folder.c_str(), W_OK) != 0)
+    throw ImageIoError("cannot write " + path + ": the folder " + folder.string() + " is not writable");
+  if (fs::is_directory(path, ec))
+    throw ImageIoError("cannot write " + path + ": it is a folder");
+}
+
+std::string formatCount(std::uint64_t n)
+{
+  char buffer[32];
+  if (n >= 1000000)
+    std::snprintf(buffer, sizeof buffer, "%.1f M", double(n) / 1e6);
+  else
+    std::snprintf(buffer, sizeof buffer, "%llu", static_cast<unsigned long long>(n));
+  return buffer;
+}
+
+} // namespace
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFunction& trace)
+{
+  const std::string name = chapter.binary;
+  RenderOptions options;
+  try {
+    options = parseCommandLine(argc, argv);
+  } catch (const UsageError& e) {
+    std::cerr << name << ": " << e.what() << "\n" << "usage: " << name << " [SCENE.json] [options]; see --help\n";
+    return 2;
+  }
+  const std::string defaultScene = sceneDirectory() + "/" + chapter.defaultScene;
+  if (options.help) {
+    std::cout << usageText(name, defaultScene);
+    return 0;
+  }
+
+  try {
+    // Load and check everything before any work: scene, size, outputs.
+    const Scene scene = loadScene(options.scenePath.empty() ? defaultScene : options.scenePath);
+    for (const std::string& w : scene.warnings)
+      std::cerr << name << ": warning: " << w << "\n";
+    const int width = options.width ? options.width : scene.camera.width;
+    const int height = options.height ? options.height : scene.camera.height;
+    if (std::int64_t(width) * height > kMaxPixels) {
+      std::cerr << name << ": an image of " << width << "x" << height << " pixels is larger than the " << kMaxPixels
+                << " pixels raylife allows\n";
+      return 2;
+    }
+    std::vector<std::string> outputs = options.outputs;
+    if (outputs.empty()) {
+      std::filesystem::create_directories("out");
+      outputs.push_back("out/" + name + ".png");
+    }
+    for (const std::string& path : outputs)
+      checkOutput(path);
+    if (!options.variancePath.empty()) {
+      if (options.variancePath.size() < 4 || options.variancePath.substr(options.variancePath.size() - 4) != ".pfm")
+        throw ImageIoError(options.variancePath + ": the variance image must be a .pfm file");
+      checkOutput(options.variancePath);
+    }
+    if (const std::string ignored = describeIgnored(scene, chapter.uses, options.maxDepth.has_value());
+        !ignored.empty() && !options.quiet)
+      std::cerr << name << ": ignores in " << scene.fileName << ": " << ignored << "\n";
+
+    RenderSettings settings;
+    settings.spp = options.spp;
+    settings.seconds = options.seconds;
+    if (!settings.spp && !settings.seconds)
+      settings.spp = chapter.defaultSpp;
+    settings.seed = options.seed;
+    settings.threads = options.threads;
+    settings.maxDepth = options.maxDepth ? *options.maxDepth : chapter.defaultMaxDepth;
+    settings.pixelSampling = chapter.pixelSampling;
+    settings.progress = !options.quiet && ::isatty(STDERR_FILENO);
+    settings.stop = &gStopRequested;
+
+    // Render, with Ctrl-C and SIGTERM turned into "stop after this pass".
+    gStopRequested = false;
+    auto previousInt = std::signal(SIGINT, onInterrupt);
+    auto previousTerm = std::signal(SIGTERM, onInterrupt);
+    const Camera camera = scene.makeCamera(width, height);
+    const RenderResult result = render(scene, camera, settings, trace);
+    std::signal(SIGINT, previousInt);
+    std::signal(SIGTERM, previousTerm);
+
+    // Write every image, all or nothing.
+    std::vector<std::pair<std::string, std::vector<unsigned char>>> files;
+    const Image mean = result.film.mean();
+    for (const std::string& path : outputs)
+      files.emplace_back(path, encodeImage(mean, path));
+    if (!options.variancePath.empty())
+      files.emplace_back(options.variancePath, encodePfm(result.film.varianceOfMean()));
+    if (!options.statsPath.empty()) {
+      std::ostringstream json;
+      json << "{\"chapter\": \"" << name << "\", \"width\": " << width << ", \"height\": " << height
+           << ", \"spp\": " << result.spp << ", \"seconds\": " << result.seconds << ", \"rays\": " << result.rays
+           << ", \"bad_samples\": " << result.badSamples << ", \"threads\": "
+           << (settings.threads > 0 ? settings.threads : omp_get_max_threads())
+           << ", \"interrupted\": " << (result.interrupted ? "true" : "false") << "}\n";
+      const std::string text = json.str();
+      files.emplace_back(options.statsPath, std::vector<unsigned char>(text.begin(), text.end()));
+    }
+    writeFilesAtomically(files);
+
+    if (!options.quiet) {
+      char line[256];
+      const double mrays = result.seconds > 0 ? double(result.rays) / result.seconds / 1e6 : 0.0;
+      std::snprintf(line, sizeof line, "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s", name.c_str(), width,
+                    height, result.spp, result.seconds, formatCount(result.rays).c_str(), mrays);
+      std::cerr << line;
+      if (result.badSamples)
+        std::cerr << ", " << result.badSamples << " bad samples set to 0";
+      if (result.interrupted)
+        std::cerr << " (interrupted after " << result.spp << " spp)";
+      std::cerr << " -> " << outputs[0];
+      for (std::size_t i = 1; i < outputs.size(); ++i)
+        std::cerr << ", " << outputs[i];
+      std::cerr << "\n";
+    }
+    return result.interrupted ? 130 : 0;
+  } catch (const SceneError& e) {
+    std::cerr << name << ": " << e.what() << "\n";
+  } catch (const ImageIoError& e) {
+    std::cerr << name << ": " << e.what() << " (nothing was written)\n";
+  } catch (const std::filesystem::filesystem_error& e) {
+    std::cerr << name << ": " << e.what() << "\n";
+  } catch (const std::bad_alloc&) {
+    std::cerr << name << ": out of memory\n";
+  }
+  return 1;
+}
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace)
+{
+  return runChapter(argc, argv, chapter,
+                    [trace](const Scene& scene, const Ray& ray, Sampler& sampler, int) { return trace(scene, ray, sampler); });
+}
+
+} // namespace raylife

@@ -1,0 +1,101 @@
+/// @file render_loop.h
+/// @brief The runner every chapter shares: command line, scene, render loop (tiles, threads, samples, time
+/// budget, progress), and the images. A chapter supplies only its trace function.
+#pragma once
+
+#include "film.h"
+#include "options.h"
+#include "rng.h"
+#include "scene.h"
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+
+namespace raylife {
+
+/// A chapter's estimator: the radiance arriving along `ray` (a primary ray), using `sampler` for any random
+/// decision and following paths of at most `maxDepth` bounces. Must be thread-safe (it is called concurrently
+/// for different pixels) and must not keep state between calls.
+using TraceFunction = std::function<Color(const Scene& scene, const Ray& ray, Sampler& sampler, int maxDepth)>;
+/// The same for chapters that neither recurse nor bound their depth.
+using SimpleTraceFunction = Color (*)(const Scene& scene, const Ray& ray, Sampler& sampler);
+
+/// What of a scene a chapter reads, so the runner can say once what it ignores.
+enum Feature : unsigned {
+  kUsesSpheres = 1u << 0,       ///< Intersects the spheres.
+  kUsesColors = 1u << 1,        ///< Reads material colours.
+  kUsesPointLights = 1u << 2,   ///< Reads point lights.
+  kUsesAmbient = 1u << 3,       ///< Reads the ambient term.
+  kUsesBackground = 1u << 4,    ///< Returns the background on a miss.
+  kUsesEmission = 1u << 5,      ///< Reads material emission.
+  kUsesMirror = 1u << 6,        ///< Treats mirror materials as mirrors.
+  kUsesGlass = 1u << 7,         ///< Treats glass materials as glass.
+  kUsesGlossy = 1u << 8,        ///< Treats glossy materials as glossy.
+  kUsesMaxDepth = 1u << 9,      ///< Honours --max-depth.
+};
+
+/// Where inside a pixel the samples fall.
+enum class PixelSampling {
+  Centre,    ///< Every sample through the pixel's centre (x + ½, y + ½): no anti-aliasing.
+  Jittered,  ///< Stratified jittered: sample s of N lies in cell s of a ⌊√N⌋² grid (uniform beyond it).
+};
+
+/// What the runner needs to know of a chapter.
+struct ChapterInfo {
+  std::string binary;         ///< e.g. "step04_shadows"; names the default output out/<binary>.png.
+  std::string defaultScene;   ///< File name under scenes/, e.g. "spheres.json".
+  unsigned uses = 0;          ///< Feature flags.
+  PixelSampling pixelSampling = PixelSampling::Centre; ///< Where samples fall in a pixel.
+  int defaultSpp = 1;         ///< Samples per pixel when neither --spp nor --time is given.
+  int defaultMaxDepth = -1;   ///< --max-depth default; −1: unlimited.
+};
+
+/// How to render, resolved from the options and the chapter's defaults.
+struct RenderSettings {
+  std::optional<int> spp;          ///< Samples per pixel, or nothing with `seconds`.
+  std::optional<double> seconds;   ///< Time budget, or nothing with `spp`.
+  std::uint64_t seed = 0;          ///< Seed of every pixel sample's random numbers.
+  int threads = 0;                 ///< OpenMP threads; 0: every core.
+  int maxDepth = -1;               ///< Passed to the trace function; −1: unlimited.
+  PixelSampling pixelSampling = PixelSampling::Centre; ///< Where samples fall.
+  bool progress = false;           ///< Draw a progress bar on standard error.
+  /// Set to true (from a signal handler, say) to stop after the pass in flight. May be null.
+  const std::atomic<bool>* stop = nullptr;
+};
+
+/// What a render produced and what it cost.
+struct RenderResult {
+  Film film;                    ///< The accumulated samples.
+  int spp = 0;                  ///< Samples every pixel received.
+  double seconds = 0;           ///< Wall-clock time of the render loop.
+  std::uint64_t rays = 0;       ///< Rays traced (Scene::intersect and Scene::occluded calls).
+  std::uint64_t badSamples = 0; ///< Samples that were NaN, infinite or negative: replaced by 0 and counted.
+  bool interrupted = false;     ///< Stopped early through RenderSettings::stop.
+};
+
+/// Renders `scene` through `camera` with `trace`.
+///
+/// The image is rendered in passes of one sample per pixel over 16×16 tiles, spread over threads by OpenMP.
+/// Sample s of pixel (x, y) draws its random numbers from Sampler(seed, x, y, s) and is added to the film in
+/// the order of s, so the image is bit-identical for any thread count. With `seconds`, passes continue until
+/// the budget is spent (at least one pass); every pixel always has the same number of samples.
+RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                    const TraceFunction& trace);
+
+/// What in `scene` a chapter that reads only `uses` ignores, as one phrase ("2 point lights, ambient"), or "".
+std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven);
+
+/// The scenes/ folder of the source tree (compiled in), where default scenes live.
+std::string sceneDirectory();
+
+/// A chapter's whole main(): parses the command line, loads the scene, renders with `trace`, writes the images
+/// (all or nothing) and prints the summary line. Returns the exit status: 0 done, 1 bad input or failed write,
+/// 2 bad command line, 130 interrupted (the image so far was written).
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFunction& trace);
+/// The same, for a trace function without a depth limit.
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace);
+
+} // namespace raylife

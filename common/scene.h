@@ -1,0 +1,74 @@
+/// @file scene.h
+/// @brief The scene: camera settings, materials, spheres and lights, its intersection queries, and its loader.
+#pragma once
+
+#include "camera.h"
+#include "hit.h"
+#include "light.h"
+#include "material.h"
+#include "ray.h"
+#include "sphere.h"
+
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace raylife {
+
+/// The camera as the scene file states it; the image size may be overridden on the command line.
+struct CameraSpec {
+  Vec3 eye{0, 0, 5};   ///< Centre of projection.
+  Vec3 focal{0};       ///< The point looked at.
+  Vec3 up{0, 1, 0};    ///< Roughly up; must not be parallel to eye − focal.
+  Real vfovDeg = 40;   ///< Full vertical field of view in degrees, in (0, 180).
+  int width = 320;     ///< Default image width in pixels, ≥ 1.
+  int height = 240;    ///< Default image height in pixels, ≥ 1.
+  CameraBasis basis{}; ///< The orthonormal basis, built and checked when the scene is loaded.
+};
+
+/// Largest image the loader and the command line accept, in pixels (width × height): 8192 × 8192.
+/// The film keeps about 56 bytes a pixel, so this bounds its memory at about 3.5 GiB.
+inline constexpr std::int64_t kMaxPixels = std::int64_t(1) << 26;
+
+/// A loaded, validated scene. Immutable while rendering, so it is shared by all threads without locks.
+struct Scene {
+  std::string fileName;            ///< Where it came from (for messages).
+  CameraSpec camera;               ///< The camera.
+  Color background{0};             ///< Radiance of every ray that leaves the scene, ≥ 0.
+  Color ambient{0};                ///< The lecture's ambient term (chapters 3 to 5), ≥ 0.
+  std::vector<Material> materials; ///< Indexed by Sphere::material.
+  std::vector<Sphere> spheres;     ///< At least one.
+  std::vector<PointLight> lights;  ///< Point lights (may be empty).
+  std::vector<std::string> warnings; ///< Non-fatal remarks from the loader (an unused material, say).
+
+  /// The nearest hit of the ray inside [ray.tmin, ray.tmax), or nothing. Counts one ray (see rayCount()).
+  std::optional<Hit> intersect(const Ray& ray) const;
+
+  /// True when anything blocks the ray inside [ray.tmin, ray.tmax): the shadow-ray query, which may stop at
+  /// the first blocker it finds. Counts one ray.
+  bool occluded(const Ray& ray) const;
+
+  /// The camera for an image of width × height pixels (the scene's own size when these are 0).
+  Camera makeCamera(int width = 0, int height = 0) const;
+};
+
+/// A fault in a scene file. what() is the whole message: "FILE:LINE:COLUMN: /json/path: what is wrong".
+class SceneError : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Reads and validates a scene file. @throws SceneError naming the file, the place and the fault.
+Scene loadScene(const std::string& path);
+
+/// Parses and validates scene text; `fileName` is used only in messages. @throws SceneError.
+Scene parseScene(std::string_view text, const std::string& fileName);
+
+/// Rays this thread has traced through Scene::intersect and Scene::occluded since it started.
+/// A per-thread statistic read by the render loop (like pbrt's stat counters); never shared between threads.
+std::uint64_t rayCount();
+
+} // namespace raylife

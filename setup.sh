@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages raylife needs, when they are missing.
+# As root it runs apt-get; otherwise it prints the one apt-get line to run and exits 1.
+#   ./setup.sh          build, tests and docs
+#   ./setup.sh --fuzz   also clang's libFuzzer runtime (tests/fuzz)
+#   ./setup.sh --browser also Chromium, for the docs screenshot check
+set -euo pipefail
+
+packages=(
+  g++ cmake make                 # compiler and build
+  libglm-dev                     # vector maths
+  libstb-dev                     # PNG reading and writing
+  nlohmann-json3-dev             # scene files
+  catch2                         # tests (version 2)
+  doxygen graphviz libjs-mathjax # docs, offline formulas
+)
+for arg in "$@"; do
+  case "$arg" in
+    --fuzz) packages+=(clang libclang-rt-14-dev) ;;
+    --browser) packages+=(chromium) ;;
+    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser)" >&2; exit 2 ;;
+  esac
+done
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup.sh: every package raylife needs is installed."
+  exit 0
+fi
+if [ "$(id -u)" -ne 0 ]; then
+  echo "setup.sh: missing packages. Run, as root:" >&2
+  echo "  apt-get update && apt-get install -y ${missing[*]}" >&2
+  exit 1
+fi
+echo "setup.sh: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends "${missing[@]}"
