@@ -153,7 +153,13 @@ std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGive
     parts.push_back("the background");
   if (uses & kUsesSpheres) {
     std::size_t emissive = 0, asDiffuse = 0;
-    for (const Material& m : scene.materials) {
+    std::vector<bool> used(scene.materials.size(), false);
+    for (const Sphere& s : scene.spheres)
+      used[std::size_t(s.material)] = true;
+    for (std::size_t i = 0; i < scene.materials.size(); ++i) {
+      if (!used[i])
+        continue; // an unused material is the loader's warning, not something the chapter ignores
+      const Material& m = scene.materials[i];
       emissive += m.isEmissive() && !(uses & kUsesEmission);
       asDiffuse += (m.type == MaterialType::Mirror && !(uses & kUsesMirror)) ||
                    (m.type == MaterialType::Glass && !(uses & kUsesGlass)) ||

@@ -15,7 +15,8 @@ namespace raylife {
 
 namespace {
 
-using Json = nlohmann::json;
+// ordered_json keeps the file's order, so material indices and messages follow the file.
+using Json = nlohmann::ordered_json;
 
 // ---- Where in the text a JSON path points, for line:column in messages --------------------------------------
 // nlohmann/json keeps no source positions, so this small scanner walks the (already valid) text to the value
@@ -278,11 +279,13 @@ public:
   {
     if (!j.is_number_integer())
       fail(path, "expected a whole number, got " + describe(j));
+    // nlohmann stores non-negative integers as unsigned: compare without converting a huge one to int64.
     if (j.is_number_unsigned() ? j.get<std::uint64_t>() > std::uint64_t(hi) : j.get<std::int64_t>() > hi)
       fail(path, "must be at most " + std::to_string(hi) + ", got " + j.dump());
-    if (!j.is_number_unsigned() && j.get<std::int64_t>() < lo)
+    const std::int64_t value = j.is_number_unsigned() ? std::int64_t(j.get<std::uint64_t>()) : j.get<std::int64_t>();
+    if (value < lo)
       fail(path, "must be at least " + std::to_string(lo) + ", got " + j.dump());
-    return int(j.get<std::int64_t>());
+    return int(value);
   }
 
   Vec3 vec3(const Json& j, const Path& path) const

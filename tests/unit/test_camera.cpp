@@ -1,11 +1,92 @@
 #include "camera.h"
+#include "rng.h"
 
 #include <catch2/catch.hpp>
 
 using namespace raylife;
 
-TEST_CASE("the camera basis is orthonormal")
+namespace {
+Vec3 randomVector(Sampler& s, Real scale)
 {
-  auto b = std::get<CameraBasis>(makeCameraBasis(Vec3(0, 0, 5), Vec3(0), Vec3(0, 1, 0)));
-  CHECK(glm::dot(b.u, b.v) == Approx(0).margin(1e-12));
+  return Vec3(s.next1D() - Real(0.5), s.next1D() - Real(0.5), s.next1D() - Real(0.5)) * (2 * scale);
+}
+const Real kTol = 64 * std::numeric_limits<Real>::epsilon();
+} // namespace
+
+TEST_CASE("the camera basis is orthonormal and right-handed for many random eye - focal and up")
+{
+  Sampler s(1, 0, 0, 0);
+  int built = 0;
+  for (int i = 0; i < 10000; ++i) {
+    const Vec3 eye = randomVector(s, 100), focal = randomVector(s, 100), up = randomVector(s, 1);
+    auto result = makeCameraBasis(eye, focal, up);
+    if (std::holds_alternative<BasisError>(result))
+      continue; // only for up nearly parallel to the view: checked below
+    ++built;
+    const CameraBasis b = std::get<CameraBasis>(result);
+    INFO("case " << i);
+    CHECK(glm::length(b.u) == Approx(1).margin(kTol));
+    CHECK(glm::length(b.v) == Approx(1).margin(kTol));
+    CHECK(glm::length(b.w) == Approx(1).margin(kTol));
+    CHECK(std::abs(glm::dot(b.u, b.v)) < kTol);
+    CHECK(std::abs(glm::dot(b.v, b.w)) < kTol);
+    CHECK(std::abs(glm::dot(b.w, b.u)) < kTol);
+    // Right-handed: u × v = w.
+    CHECK(glm::length(glm::cross(b.u, b.v) - b.w) < kTol);
+    // w points from the focal point to the eye; v leans towards up.
+    CHECK(glm::dot(b.w, eye - focal) > 0);
+    CHECK(glm::dot(b.v, up) >= 0);
+  }
+  CHECK(built > 9990);
+}
+
+TEST_CASE("the basis matches the lecture's formulas for a simple camera")
+{
+  const auto b = std::get<CameraBasis>(makeCameraBasis(Vec3(0, 0, 5), Vec3(0, 0, 0), Vec3(0, 1, 0)));
+  CHECK(glm::length(b.w - Vec3(0, 0, 1)) < kTol); // w = (eye − focal)/|eye − focal|
+  CHECK(glm::length(b.u - Vec3(1, 0, 0)) < kTol); // u = (up × w)/|up × w|
+  CHECK(glm::length(b.v - Vec3(0, 1, 0)) < kTol); // v = w × u
+}
+
+TEST_CASE("bad cameras are refused with a reason - never a NaN basis")
+{
+  auto message = [](const Vec3& eye, const Vec3& focal, const Vec3& up) {
+    auto r = makeCameraBasis(eye, focal, up);
+    return std::holds_alternative<BasisError>(r) ? std::get<BasisError>(r).message : std::string();
+  };
+  CHECK_THAT(message(Vec3(1), Vec3(1), Vec3(0, 1, 0)), Catch::Contains("same point"));
+  CHECK_THAT(message(Vec3(0, 0, 5), Vec3(0), Vec3(0)), Catch::Contains("zero length"));
+  CHECK_THAT(message(Vec3(0, 5, 0), Vec3(0), Vec3(0, 1, 0)), Catch::Contains("parallel"));
+  CHECK_THAT(message(Vec3(0, 5, 0), Vec3(0), Vec3(0, -3, 0)), Catch::Contains("parallel"));
+  CHECK_THAT(message(Vec3(0, 0, kInfinity), Vec3(0), Vec3(0, 1, 0)), Catch::Contains("finite"));
+}
+
+TEST_CASE("primary directions are d = u·x + v·y − w·z - normalised - through pixel centres")
+{
+  const Vec3 eye(1, 2, 3), focal(-2, 0.5, -4), up(0.1, 1, 0.2);
+  const auto b = std::get<CameraBasis>(makeCameraBasis(eye, focal, up));
+  const int width = 64, height = 48;
+  const Real vfov = 50;
+  const Camera camera(b, eye, vfov, width, height);
+  const Real halfH = std::tan(glm::radians(vfov) / 2), halfW = halfH * Real(width) / Real(height);
+
+  struct Case { int px, py; };
+  for (Case c : {Case{0, 0}, Case{63, 0}, Case{0, 47}, Case{63, 47}, Case{32, 24}, Case{10, 40}}) {
+    const Real x = (2 * (Real(c.px) + Real(0.5)) / Real(width) - 1) * halfW;
+    const Real y = (1 - 2 * (Real(c.py) + Real(0.5)) / Real(height)) * halfH;
+    const Vec3 expected = glm::normalize(b.u * x + b.v * y - b.w * Real(1));
+    const Ray ray = camera.ray(Vec2(Real(c.px) + Real(0.5), Real(c.py) + Real(0.5)));
+    INFO("pixel " << c.px << ", " << c.py);
+    CHECK(glm::length(ray.direction - expected) < kTol);
+    CHECK(ray.origin == eye);
+    CHECK(ray.tmin == 0);
+  }
+  // The image centre looks straight at the focal point; row 0 is the top (+v), column 0 the left (−u).
+  const Ray centre = camera.ray(Vec2(Real(width) / 2, Real(height) / 2));
+  CHECK(glm::length(centre.direction + b.w) < kTol);
+  CHECK(glm::dot(camera.ray(Vec2(Real(0.5), Real(0.5))).direction, b.v) > 0);
+  CHECK(glm::dot(camera.ray(Vec2(Real(0.5), Real(0.5))).direction, b.u) < 0);
+  // The top edge's centre is exactly vfov/2 above the axis.
+  const Ray top = camera.ray(Vec2(Real(width) / 2, 0));
+  CHECK(std::acos(glm::dot(top.direction, -b.w)) == Approx(glm::radians(vfov) / 2).epsilon(1e-6));
 }

@@ -1,0 +1,105 @@
+#include "film.h"
+#include "image_compare.h"
+#include "image_io.h"
+
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+
+using namespace raylife;
+
+namespace {
+std::string tempPath(const std::string& name)
+{
+  return (std::filesystem::temp_directory_path() / ("raylife_unit_" + name)).string();
+}
+} // namespace
+
+TEST_CASE("PFM round trip keeps linear floats exactly - unclamped - with row 0 at the top")
+{
+  Image image(5, 3);
+  for (std::size_t i = 0; i < image.pixels.size(); ++i)
+    image.pixels[i] = float(i) * 0.37f - 2.0f; // negative and > 1 values survive
+  image.at(0, 0, 0) = 1e30f;
+  const std::string path = tempPath("roundtrip.pfm");
+  writeImage(image, path);
+  const Image back = readPfm(path);
+  REQUIRE(back.width == 5);
+  REQUIRE(back.height == 3);
+  CHECK(back.pixels == image.pixels);
+  std::remove(path.c_str());
+}
+
+TEST_CASE("the PFM file stores the bottom row first - little-endian - as the format says")
+{
+  Image image(1, 2);
+  image.at(0, 0, 0) = 1.0f; // top
+  image.at(0, 1, 0) = 2.0f; // bottom
+  const std::vector<unsigned char> bytes = encodePfm(image);
+  const std::string header = "PF\n1 2\n-1.0\n";
+  REQUIRE(bytes.size() == header.size() + 2 * 3 * 4);
+  float first;
+  std::memcpy(&first, bytes.data() + header.size(), 4);
+  CHECK(first == 2.0f);
+}
+
+TEST_CASE("PNG is clamped and sRGB-encoded and decodes back to linear within 8-bit steps")
+{
+  CHECK(linearToSrgb(0.0f) == 0.0f);
+  CHECK(linearToSrgb(1.0f) == Approx(1.0f));
+  CHECK(linearToSrgb(0.5f) == Approx(0.7353569f).epsilon(1e-5)); // sRGB of 0.5
+  CHECK(linearToSrgb(7.0f) == Approx(1.0f));                     // clamped
+  CHECK(linearToSrgb(-1.0f) == 0.0f);
+  for (float v : {0.001f, 0.01f, 0.2f, 0.5f, 0.9f})
+    CHECK(srgbToLinear(linearToSrgb(v)) == Approx(v).epsilon(1e-4));
+
+  Image image(4, 2);
+  image.at(0, 0, 0) = 0.5f;
+  image.at(1, 0, 1) = 3.0f;
+  image.at(2, 1, 2) = -1.0f;
+  const std::string path = tempPath("image.png");
+  writeImage(image, path);
+  const Image back = readPng(path);
+  CHECK(back.at(0, 0, 0) == Approx(0.5f).epsilon(0.01)); // 8-bit quantisation of the encoded value
+  CHECK(back.at(1, 0, 1) == 1.0f);
+  CHECK(back.at(2, 1, 2) == 0.0f);
+  std::remove(path.c_str());
+}
+
+TEST_CASE("the film's mean and variance of the mean follow the textbook formulas")
+{
+  Film film(2, 1);
+  for (double v : {1.0, 2.0, 3.0, 6.0})
+    film.add(0, 0, Color(Real(v)));
+  film.add(1, 0, Color(5));
+  const Image mean = film.mean(), var = film.varianceOfMean();
+  CHECK(mean.at(0, 0, 0) == Approx(3.0));
+  CHECK(var.at(0, 0, 0) == Approx(14.0 / 3.0 / 4.0)); // s² = Σ(x − 3)²/(n − 1) = 14/3, over n = 4
+  CHECK(mean.at(1, 0, 1) == Approx(5.0));
+  CHECK(var.at(1, 0, 1) == 0.0f); // one sample: no variance estimate
+  CHECK(film.samples(0, 0) == 4);
+}
+
+TEST_CASE("image metrics: identical - shifted and a NaN")
+{
+  Image a(10, 10), b(10, 10);
+  for (float& p : a.pixels)
+    p = 0.5f;
+  b = a;
+  const ImageDifference same = compareImages(a, b, 0);
+  CHECK(same.maxAbs == 0);
+  CHECK(same.overTolerance == 0);
+  CHECK(std::isinf(same.psnr));
+  b.at(3, 4, 1) = 0.6f;
+  const ImageDifference one = compareImages(b, a, 0.05);
+  CHECK(one.maxAbs == Approx(0.1));
+  CHECK(one.worstX == 3);
+  CHECK(one.worstY == 4);
+  CHECK(one.overTolerance == Approx(0.01));
+  CHECK(one.rmse == Approx(std::sqrt(0.01 / 300)));
+  CHECK(one.relativeMse == Approx(0.01 / (0.25 + 0.01) / 300));
+  b.at(0, 0, 0) = std::numeric_limits<float>::quiet_NaN();
+  CHECK(std::isinf(compareImages(b, a, 0.05).maxAbs)); // a NaN never passes
+}
