@@ -2,6 +2,7 @@
 
 namespace raylife {
 
+// [makeCameraBasis]
 std::variant<CameraBasis, BasisError> makeCameraBasis(const Vec3& eye, const Vec3& focal, const Vec3& up)
 {
   if (!isFinite(eye) || !isFinite(focal) || !isFinite(up))
@@ -26,6 +27,7 @@ std::variant<CameraBasis, BasisError> makeCameraBasis(const Vec3& eye, const Vec
   b.v = glm::cross(b.w, b.u); // unit: w and u are orthonormal
   return b;
 }
+// [makeCameraBasis]
 
 Camera::Camera(const CameraBasis& basis, const Vec3& eye, Real vfovDeg, int width, int height)
     : basis_(basis), eye_(eye), width_(width), height_(height)
@@ -34,6 +36,7 @@ Camera::Camera(const CameraBasis& basis, const Vec3& eye, Real vfovDeg, int widt
   halfWidth_ = halfHeight_ * Real(width) / Real(height);
 }
 
+// [camera_ray]
 Ray Camera::ray(Vec2 film) const
 {
   // Film position in pixels → image-plane coordinates in [−halfWidth, halfWidth] × [−halfHeight, halfHeight],
@@ -44,5 +47,6 @@ Ray Camera::ray(Vec2 film) const
   const Vec3 d = basis_.u * x + basis_.v * y - basis_.w * z;
   return Ray{eye_, glm::normalize(d), 0, kInfinity};
 }
+// [camera_ray]
 
 } // namespace raylife

@@ -28,6 +28,7 @@ inline Ray spawnRay(const Hit& hit, const Vec3& dir)
   return Ray{offsetRayOrigin(hit.point, hit.pointError, hit.normal, dir), dir, 0, kInfinity};
 }
 
+// [spawnRayTo]
 /// A ray from the hit point towards `target` (a point light, say), stopping just short of it: tmax is the
 /// distance shortened by the relative kShadowRayShorten, so a surface through the target does not block it.
 inline Ray spawnRayTo(const Hit& hit, const Vec3& target)
@@ -40,5 +41,6 @@ inline Ray spawnRayTo(const Hit& hit, const Vec3& target)
   const Vec3 origin = offsetRayOrigin(hit.point, hit.pointError, hit.normal, dir);
   return Ray{origin, dir, 0, glm::length(target - origin) * (1 - kShadowRayShorten)};
 }
+// [spawnRayTo]
 
 } // namespace raylife

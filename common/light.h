@@ -23,6 +23,7 @@ struct PointLight {
   Vec3 position{0};   ///< World space.
   Color intensity{1}; ///< Radiant intensity, ≥ 0 per channel.
 
+  // [arrivalAt]
   /// The light arriving at `point` from this light, or nothing when the point is the light's own position
   /// (where direction and I_L are undefined).
   std::optional<LightArrival> arrivalAt(const Vec3& point) const
@@ -33,6 +34,7 @@ struct PointLight {
       return std::nullopt;
     return LightArrival{toLight / distance, distance, intensity / (distance * distance)};
   }
+  // [arrivalAt]
 };
 
 } // namespace raylife

@@ -10,6 +10,8 @@
 #include <limits>
 #include <numbers>
 
+/// Everything raylife's shared library defines: the building blocks every chapter uses (see the pages for the
+/// chapters that introduce each one).
 namespace raylife {
 
 /// The renderer's scalar type: `double` unless the build sets RAYLIFE_REAL_IS_FLOAT (`-DRAYLIFE_REAL=float`).

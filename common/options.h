@@ -13,7 +13,7 @@ namespace raylife {
 /// What the command line asked for. Zero or empty means "the chapter's or the scene's default".
 struct RenderOptions {
   std::string scenePath;            ///< Scene file; empty: the chapter's default scene.
-  std::vector<std::string> outputs; ///< Up to two image files (.png and/or .pfm); empty: out/<binary>.png.
+  std::vector<std::string> outputs; ///< Up to two image files (.png and/or .pfm); empty: out/BINARY.png.
   std::string variancePath;         ///< --variance: PFM of each pixel's variance of the mean; empty: none.
   std::string statsPath;            ///< --stats: a JSON file of the render's figures; empty: none.
   int width = 0;                    ///< --width, pixels; 0: the scene's.

@@ -96,6 +96,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
 #pragma omp for schedule(dynamic, 1)
       for (std::size_t t = 0; t < tiles.size(); ++t) {
         const Tile& tile = tiles[t];
+        // [pixel_loop]
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x) {
             // One pixel sample: its own random numbers, a film position, the chapter's estimate.
@@ -110,6 +111,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
             }
             result.film.add(x, y, L);
           }
+        // [pixel_loop]
         const int done = ++tilesDone;
         if (settings.progress && omp_get_thread_num() == 0) {
           const double now = elapsed();

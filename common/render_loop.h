@@ -45,7 +45,7 @@ enum class PixelSampling {
 
 /// What the runner needs to know of a chapter.
 struct ChapterInfo {
-  std::string binary;         ///< e.g. "step04_shadows"; names the default output out/<binary>.png.
+  std::string binary;         ///< e.g. "step04_shadows"; names the default output out/BINARY.png.
   std::string defaultScene;   ///< File name under scenes/, e.g. "spheres.json".
   unsigned uses = 0;          ///< Feature flags.
   PixelSampling pixelSampling = PixelSampling::Centre; ///< Where samples fall in a pixel.

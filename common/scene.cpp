@@ -8,6 +8,7 @@ thread_local std::uint64_t tRayCount = 0;
 
 std::uint64_t rayCount() { return tRayCount; }
 
+// [intersect]
 std::optional<Hit> Scene::intersect(const Ray& ray) const
 {
   ++tRayCount;
@@ -29,7 +30,9 @@ std::optional<Hit> Scene::intersect(const Ray& ray) const
   const SurfacePoint<Real> sp = sphereSurfacePoint(ray.origin, ray.direction, tNearest, s.center, s.radius);
   return Hit{tNearest, sp.point, sp.normal, sp.error, nearest, s.material};
 }
+// [intersect]
 
+// [occluded]
 bool Scene::occluded(const Ray& ray) const
 {
   ++tRayCount;
@@ -38,6 +41,7 @@ bool Scene::occluded(const Ray& ray) const
       return true;
   return false;
 }
+// [occluded]
 
 Camera Scene::makeCamera(int width, int height) const
 {

@@ -31,9 +31,10 @@ template <class T> struct SphereRoots {
   T t1; ///< Farther root.
 };
 
+// [intersectSphereRoots]
 /// Where the line o + t·d meets the sphere |p − c| = r, in the robust form described in the file comment.
 ///
-/// @param d unit direction. @param r radius > 0.
+/// @param o the line's origin. @param d its unit direction. @param c the sphere's centre. @param r radius > 0.
 /// @return both roots (a tangent gives t0 == t1), or nothing when the line misses. Ignores any ray interval.
 template <class T>
 std::optional<SphereRoots<T>> intersectSphereRoots(const TVec3<T>& o, const TVec3<T>& d, const TVec3<T>& c, T r)
@@ -59,6 +60,7 @@ std::optional<SphereRoots<T>> intersectSphereRoots(const TVec3<T>& o, const TVec
     std::swap(t0, t1);
   return SphereRoots<T>{t0, t1};
 }
+// [intersectSphereRoots]
 
 /// The nearest root of the line with the sphere inside [tmin, tmax), or nothing.
 template <class T>
@@ -81,6 +83,7 @@ template <class T> struct SurfacePoint {
   TVec3<T> error;  ///< Per-component bound on |point − true surface point|, ≥ 0.
 };
 
+// [sphereSurfacePoint]
 /// Re-projects o + t·d onto the sphere and bounds the result's error.
 ///
 /// o + t·d carries the error of t times |d|, which can be large; moving the point to c + r·(p − c)/|p − c|
@@ -99,7 +102,9 @@ SurfacePoint<T> sphereSurfacePoint(const TVec3<T>& o, const TVec3<T>& d, T t, co
   const TVec3<T> err = gamma<T>(5) * glm::abs(onSphere) + gamma<T>(2) * glm::abs(p);
   return SurfacePoint<T>{p, n, err};
 }
+// [sphereSurfacePoint]
 
+// [offsetRayOrigin]
 /// Moves a point p with error bound `error` off its surface (normal n) to the side that direction w leaves
 /// through, far enough that no rounding can put the new origin on the wrong side of the surface.
 ///
@@ -121,5 +126,6 @@ TVec3<T> offsetRayOrigin(const TVec3<T>& p, const TVec3<T>& error, const TVec3<T
   }
   return po;
 }
+// [offsetRayOrigin]
 
 } // namespace raylife
