@@ -5,11 +5,14 @@
 
 #include "image_io.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
+
+#include <sys/wait.h> // WEXITSTATUS
 
 namespace raylife::stability {
 

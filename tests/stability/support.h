@@ -10,12 +10,15 @@
 #include "rng.h"
 #include "sphere.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <string>
+#include <utility>
 
 namespace raylife::stability {
 
@@ -41,7 +44,7 @@ private:
   Pcg32 rng_;
 };
 
-/// A uniformly distributed unit vector, in long double precision (rounded by the caller).
+/// A uniformly distributed unit vector, in double (rounded to T by the caller).
 inline glm::dvec3 uniformSphere(TestRng& rng)
 {
   const double z = rng.uniform(-1, 1);
