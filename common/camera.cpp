@@ -23,7 +23,11 @@ std::variant<CameraBasis, BasisError> makeCameraBasis(const Vec3& eye, const Vec
   const Real sine = glm::length(side);
   if (!(sine >= kMinUpSine))
     return BasisError{"the up vector is parallel to the view direction (eye - focal)"};
-  b.u = side / sine;
+  // Rounding leaves `side` a component along w of a few u, which dividing by a small sine magnifies (in float,
+  // to 1e-2 at sine 2e-6: tests/stability/test_camera_up.cpp). One Gram–Schmidt step removes it, so u ⟂ w to
+  // rounding whatever the sine.
+  const Vec3 across = side - glm::dot(side, b.w) * b.w;
+  b.u = across / glm::length(across);
   b.v = glm::cross(b.w, b.u); // unit: w and u are orthonormal
   return b;
 }

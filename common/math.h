@@ -67,4 +67,23 @@ template <class T> inline bool isFinite(const TVec3<T>& v)
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
+/// The unit vector along v, or `fallback` when v has no direction: v is zero or has a component that is not
+/// finite.
+///
+/// glm::normalize squares the components, so |v|² underflows to 0 for |v| below about 1e-154 in double and
+/// 1e-19 in float (it then returns ±∞ or NaN), and overflows above about 1e154 and 1e19 (it then returns 0).
+/// This divides by the largest magnitude first, so every finite, non-zero v, subnormal ones included, gives
+/// a vector of length 1 to within a few ulps. Use it wherever a vector may legitimately degenerate (a sampled
+/// direction that cancels the normal, say); fallback should itself be unit.
+template <class T> TVec3<T> safeNormalize(const TVec3<T>& v, const TVec3<T>& fallback)
+{
+  if (!isFinite(v))
+    return fallback;
+  const T scale = std::fmax(std::fabs(v.x), std::fmax(std::fabs(v.y), std::fabs(v.z)));
+  if (!(scale > 0))
+    return fallback;
+  const TVec3<T> w = v / scale; // its largest component is ±1: no under- or overflow in the length
+  return w / glm::length(w);
+}
+
 } // namespace raylife

@@ -1,0 +1,62 @@
+/// @file run_chapter.h
+/// @brief Runs a built chapter binary on a scene and reads back its image and its figures, so that the
+/// stability tests exercise the chapters themselves, not copies of their trace functions.
+#pragma once
+
+#include "image_io.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <sys/wait.h> // WEXITSTATUS
+
+namespace raylife::stability {
+
+/// What one chapter run produced.
+struct ChapterRun {
+  int status = -1;           ///< The process's exit status (0: rendered).
+  Image image;               ///< The PFM it wrote (linear radiance, unclamped).
+  long long badSamples = -1; ///< RenderResult::badSamples from its --stats file; −1 if unreadable.
+};
+
+/// Runs `binary` (a chapter, e.g. "step04_shadows") on `scene` with one thread, writing into the test's output
+/// folder under the file stem `tag` (unique per test, as ctest runs tests in parallel).
+inline ChapterRun runChapter(const std::string& binary, const std::string& scene, const std::string& tag)
+{
+  const std::string stem = std::string(RAYLIFE_STABILITY_OUT_DIR) + "/" + tag;
+  const std::string command = std::string("\"") + RAYLIFE_STEP_DIR + "/" + binary + "\" \"" + scene + "\" -o \"" +
+                              stem + ".pfm\" --stats \"" + stem + ".json\" --threads 1 --quiet";
+  ChapterRun run;
+  const int raw = std::system(command.c_str());
+  run.status = raw == -1 ? -1 : WEXITSTATUS(raw);
+  if (run.status != 0)
+    return run;
+  run.image = readPfm(stem + ".pfm");
+  std::ifstream stats(stem + ".json");
+  std::stringstream text;
+  text << stats.rdbuf();
+  const std::string json = text.str();
+  const std::string key = "\"bad_samples\": ";
+  if (const std::size_t at = json.find(key); at != std::string::npos)
+    run.badSamples = std::atoll(json.c_str() + at + key.size());
+  return run;
+}
+
+/// Pixels with a channel that is NaN, infinite or negative.
+inline int badPixels(const Image& image)
+{
+  int bad = 0;
+  for (std::size_t i = 0; i < image.pixels.size(); i += 3) {
+    bool ok = true;
+    for (std::size_t c = 0; c < 3; ++c)
+      ok = ok && std::isfinite(image.pixels[i + c]) && image.pixels[i + c] >= 0;
+    bad += !ok;
+  }
+  return bad;
+}
+
+} // namespace raylife::stability

@@ -1,0 +1,85 @@
+// Case 10 (chapters 1 to 4) — NaN and Inf never reach the film.
+//
+// Setup: every scene under scenes/stress/ that is meant to load (not invalid_*), rendered by each built
+// chapter binary, 1 to 4. Pass criterion: exit status 0, RenderResult::badSamples == 0 (read from --stats: the
+// render loop replaces a non-finite or negative sample by black and counts it, so the image alone cannot tell),
+// and no NaN, infinite or negative pixel in the PFM. Naive, for contrast: chapter 3's Lambert sum with the light
+// direction taken as glm::normalize(light − p), on light_on_surface.json, where a point light sits exactly on
+// the point the centre pixel sees: 0/0 gives NaN, which the render loop counts (PointLight::arrivalAt, which
+// chapters 3 and 4 use, returns nothing there instead).
+#include "render_loop.h"
+#include "run_chapter.h"
+#include "shading.h"
+#include "support.h"
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <filesystem>
+#include <vector>
+
+using namespace raylife;
+using namespace raylife::stability;
+
+namespace {
+
+std::vector<std::filesystem::path> renderableStressScenes()
+{
+  std::vector<std::filesystem::path> scenes;
+  for (const auto& entry : std::filesystem::directory_iterator(sceneDirectory() + "/stress"))
+    if (entry.path().extension() == ".json" && entry.path().filename().string().rfind("invalid_", 0) != 0)
+      scenes.push_back(entry.path());
+  std::sort(scenes.begin(), scenes.end());
+  return scenes;
+}
+
+} // namespace
+
+TEST_CASE("stability 10: every stress scene renders in chapters 1-4 with no bad sample", "[stability][finite]")
+{
+  const std::vector<std::filesystem::path> scenes = renderableStressScenes();
+  REQUIRE(scenes.size() >= 8);
+  for (const char* chapter : {"step01_camera", "step02_sphere", "step03_lambert", "step04_shadows"})
+    for (const auto& scene : scenes) {
+      const ChapterRun run = runChapter(chapter, scene.string(), std::string("finite_") + chapter + "_" +
+                                                                     scene.stem().string());
+      INFO(chapter << " on " << scene.filename().string());
+      REQUIRE(run.status == 0);
+      CHECK(run.badSamples == 0);
+      CHECK(badPixels(run.image) == 0);
+    }
+  printFigure("finite film: " + std::to_string(scenes.size()) + " stress scenes x chapters 1-4 rendered");
+}
+
+TEST_CASE("stability 10 (naive): a light direction normalised without a check puts NaN in the render",
+          "[stability][finite]")
+{
+  const Scene scene = loadScene(sceneDirectory() + "/stress/light_on_surface.json");
+  const Camera camera = scene.makeCamera();
+  RenderSettings settings;
+  settings.spp = 1;
+  settings.threads = 1;
+  // Chapter 3's sum with the naive light direction.
+  const TraceFunction naive = [](const Scene& s, const Ray& ray, Sampler&, int) -> Color {
+    const std::optional<Hit> hit = s.intersect(ray);
+    if (!hit)
+      return s.background;
+    const Color C = s.materials[std::size_t(hit->material)].color;
+    Color I = s.ambient * C;
+    for (const PointLight& light : s.lights) {
+      const Vec3 L = glm::normalize(light.position - hit->point);
+      const Real r2 = glm::dot(light.position - hit->point, light.position - hit->point);
+      I += std::max(Real(0), glm::dot(L, hit->normal)) * C * light.intensity / r2;
+    }
+    return I;
+  };
+  const RenderResult naiveResult = render(scene, camera, settings, naive);
+  printFigure("finite film naive: light_on_surface.json, naive light direction: " +
+              std::to_string(naiveResult.badSamples) + " bad samples");
+  CHECK(naiveResult.badSamples > 0);
+  // And the chapter itself on the same scene: none.
+  const ChapterRun run = runChapter("step03_lambert", sceneDirectory() + "/stress/light_on_surface.json",
+                                    "finite_naive_contrast_step03");
+  REQUIRE(run.status == 0);
+  CHECK(run.badSamples == 0);
+}
