@@ -84,7 +84,7 @@ TEMPLATE_TEST_CASE("stability 7 (naive): the unchecked camera basis breaks near 
   }
 }
 
-TEST_CASE("stability 7: makeCameraBasis refuses a parallel or nearly parallel up, and is orthonormal otherwise",
+TEST_CASE("stability 7: makeCameraBasis refuses a parallel or nearly parallel up and is orthonormal otherwise",
           "[stability][camera]")
 {
   TestRng rng(77);
@@ -121,7 +121,7 @@ TEST_CASE("stability 7: makeCameraBasis refuses a parallel or nearly parallel up
   CHECK(worstAccepted <= kOrthonormalTolerance);
 }
 
-TEST_CASE("stability 7: a scene whose up vector is parallel to the view fails to load, naming /camera/up",
+TEST_CASE("stability 7: a scene whose up vector is parallel to the view fails to load naming /camera/up",
           "[stability][camera]")
 {
   for (const char* name : {"invalid_camera_up_parallel.json", "invalid_camera_up_nudged_1e-7.json"}) {

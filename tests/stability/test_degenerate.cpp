@@ -26,7 +26,7 @@ template <class T> bool isUnit(const TVec3<T>& v)
 
 } // namespace
 
-TEMPLATE_TEST_CASE("stability 6: tiny, huge and cancelling vectors normalise to unit length or a fallback",
+TEMPLATE_TEST_CASE("stability 6: tiny and huge and cancelling vectors normalise to unit length or a fallback",
                    "[stability][degenerate]", float, double)
 {
   using T = TestType;

@@ -131,7 +131,7 @@ TEMPLATE_TEST_CASE("stability 4: rays leaving a sphere never hit it again at t ~
   }
 }
 
-TEST_CASE("stability 4 (issue 2): no self-hits through Scene::intersect, spawnRay and spawnRayTo",
+TEST_CASE("stability 4 (issue 2): no self-hits through Scene::intersect and spawnRay and spawnRayTo",
           "[stability][self-hit]")
 {
   // The renderer's own path in Real: 100,000 random spheres (radius log-uniform in [1e-3, 1e4], centre uniform

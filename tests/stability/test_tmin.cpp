@@ -83,7 +83,7 @@ template <class T> GapFigures measureGap(double gap, int rays, std::uint64_t see
 
 } // namespace
 
-TEMPLATE_TEST_CASE("stability 3: a fixed t_min hides the nearest hit; the offset origin does not",
+TEMPLATE_TEST_CASE("stability 3: a fixed t_min hides the nearest hit but the offset origin does not",
                    "[stability][tmin]", float, double)
 {
   constexpr int kRays = 2000;
@@ -108,7 +108,7 @@ TEMPLATE_TEST_CASE("stability 3: a fixed t_min hides the nearest hit; the offset
   }
 }
 
-TEST_CASE("stability 3: Scene::intersect after spawnRay finds a sphere 0.0007 away, not one 1000 away",
+TEST_CASE("stability 3: Scene::intersect after spawnRay finds a sphere 0.0007 away and not one 1000 away",
           "[stability][tmin]")
 {
   // The renderer's own path, in Real: a ray from above hits A's top; the spawned ray goes up into B.
