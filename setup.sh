@@ -19,7 +19,7 @@ for arg in "$@"; do
   case "$arg" in
     --fuzz) packages+=(clang libclang-rt-14-dev) ;;
     --browser) packages+=(chromium) ;;
-    --bench) packages+=(gnuplot-nox) ;;
+    --bench) packages+=(gnuplot-nox fonts-dejavu-core) ;;
     *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench)" >&2; exit 2 ;;
   esac
 done

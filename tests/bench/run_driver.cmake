@@ -58,3 +58,18 @@ execute_process(COMMAND ${BENCH} ${common} --chapters ${chapters}
 if(NOT status EQUAL 0 OR NOT out2 MATCHES "from the cache")
   message(FATAL_ERROR "the second run did not reuse the cached reference (status ${status}):\n${out2}\n${err2}")
 endif()
+# --replot draws and summarises the CSV again: the same tables from the rows alone (the CSV round trip).
+execute_process(COMMAND ${BENCH} --replot ${WORK}/out/results.csv --out ${WORK}/replot --no-plots
+  RESULT_VARIABLE status OUTPUT_VARIABLE out3 ERROR_VARIABLE err3)
+if(NOT status EQUAL 0 OR NOT EXISTS ${WORK}/replot/summary.md)
+  message(FATAL_ERROR "--replot failed (status ${status}):\n${out3}\n${err3}")
+endif()
+file(READ ${WORK}/out/summary.md first)
+file(READ ${WORK}/replot/summary.md again)
+string(FIND "${first}" "| chapter | spp in" a)
+string(FIND "${again}" "| chapter | spp in" b)
+string(SUBSTRING "${first}" ${a} -1 first)
+string(SUBSTRING "${again}" ${b} -1 again)
+if(a EQUAL -1 OR NOT first STREQUAL again)
+  message(FATAL_ERROR "the summary redrawn from the CSV differs from the run's:\n${first}\n---\n${again}")
+endif()

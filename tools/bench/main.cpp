@@ -52,11 +52,11 @@ Plan fullPlan()
   p.mode = "full";
   p.width = 320;
   p.height = 240;
-  p.sppLadder = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512};
+  p.sppLadder = {1, 2, 4, 8, 16, 32, 64, 128, 256};
   p.timeBudgets = {1, 2, 4, 8, 16};
   p.seeds = 4;
-  p.referenceSpp = 16384;
-  p.checkSpp = 4096;
+  p.referenceSpp = 8192;
+  p.checkSpp = 2048;
   p.threadsSpp = 64;
   return p;
 }
@@ -78,6 +78,7 @@ struct Options {
   bool floatGiven = false;
   std::vector<std::string> chapters, scenes;
   bool plots = true;
+  std::string replot; // a results.csv to draw and summarise again, without rendering
 };
 
 std::vector<std::string> splitList(const std::string& s)
@@ -117,6 +118,8 @@ std::vector<std::string> splitList(const std::string& s)
   --threads-spp N       spp budget of the 1-thread and float runs
   --threads N           the ladder's thread count (default: every core)
   --no-plots            write the CSV and the summary only (no gnuplot)
+  --replot FILE.csv     draw the plots and write the summary of an earlier results.csv again (into --out,
+                        default: the CSV's folder), rendering nothing
 )";
   std::exit(2);
 }
@@ -159,7 +162,8 @@ Options parseOptions(int argc, char** argv)
       usage("");
     else if (a == "--bin" || a == "--float-bin" || a == "--chapters" || a == "--scenes" || a == "--out" ||
              a == "--references" || a == "--size" || a == "--spp" || a == "--times" || a == "--seeds" ||
-             a == "--reference-spp" || a == "--check-spp" || a == "--threads-spp" || a == "--threads")
+             a == "--reference-spp" || a == "--check-spp" || a == "--threads-spp" || a == "--threads" ||
+             a == "--replot")
       later.emplace_back(a, value());
     else
       usage("unknown option '" + a + "'");
@@ -202,6 +206,8 @@ Options parseOptions(int argc, char** argv)
       o.plan.threadsSpp = intList(v)[0];
     else if (a == "--threads")
       o.plan.threads = intList(v)[0];
+    else if (a == "--replot")
+      o.replot = v;
   }
   return o;
 }
@@ -486,6 +492,34 @@ int main(int argc, char** argv)
   Options o = parseOptions(argc, argv);
   Plan& plan = o.plan;
   try {
+    if (!o.replot.empty()) {
+      // Draw and summarise an earlier run again: the rows carry everything but the reference checks.
+      const std::vector<Row> rows = parseCsv(readText(o.replot));
+      if (rows.empty())
+        throw std::runtime_error(o.replot + " has no rows");
+      const fs::path out = o.outDir.empty() ? fs::absolute(o.replot).parent_path() : o.outDir;
+      fs::create_directories(out);
+      std::vector<std::string> scenes, chapters;
+      for (const Row& r : rows) {
+        if (std::find(scenes.begin(), scenes.end(), r.scene) == scenes.end())
+          scenes.push_back(r.scene);
+        if (std::find(chapters.begin(), chapters.end(), r.chapter) == chapters.end())
+          chapters.push_back(r.chapter);
+      }
+      SummaryContext context;
+      context.mode = rows.front().mode;
+      context.date = "see " + o.replot + " (summary regenerated " + utcNow() + ")";
+      context.machine = "not recorded in the CSV";
+      context.build = rows.front().build;
+      context.conditions = "as in the run that wrote the CSV; the reference checks are not repeated here";
+      context.baselineChapter = std::find(chapters.begin(), chapters.end(), "step06_path_tracer") != chapters.end()
+                                    ? "step06_path_tracer"
+                                    : chapters.front();
+      writePlots(rows, scenes, chapters, out, o.plots, context.notes);
+      std::ofstream(out / "summary.md") << summaryMarkdown(rows, context);
+      std::cout << "raylife_bench: redrew the plots and the summary of " << o.replot << " in " << out.string() << "\n";
+      return 0;
+    }
     if (o.binDir.empty())
       o.binDir = fs::canonical("/proc/self/exe").parent_path();
     o.binDir = fs::absolute(o.binDir);
