@@ -79,6 +79,7 @@ struct Options {
   std::vector<std::string> chapters, scenes;
   bool plots = true;
   std::string replot; // a results.csv to draw and summarise again, without rendering
+  bool referencesOnly = false;
 };
 
 std::vector<std::string> splitList(const std::string& s)
@@ -118,6 +119,7 @@ std::vector<std::string> splitList(const std::string& s)
   --threads-spp N       spp budget of the 1-thread and float runs
   --threads N           the ladder's thread count (default: every core)
   --no-plots            write the CSV and the summary only (no gnuplot)
+  --references-only     render (or find in the cache) and check each scene's reference, then stop
   --replot FILE.csv     draw the plots and write the summary of an earlier results.csv again (into --out,
                         default: the CSV's folder), rendering nothing
 )";
@@ -155,6 +157,8 @@ Options parseOptions(int argc, char** argv)
       o.plan = fullPlan();
     else if (a == "--no-plots")
       o.plots = false;
+    else if (a == "--references-only")
+      o.referencesOnly = true;
     else if (a == "--no-float") {
       o.floatGiven = true;
       o.floatBinDir.clear();
@@ -620,8 +624,9 @@ int main(int argc, char** argv)
 
     std::vector<Row> rows;
     const fs::path csvPath = o.outDir / "results.csv";
-    std::ofstream csv(csvPath);
-    csv << csvHeader() << "\n";
+    std::ofstream csv;
+    if (!o.referencesOnly) // never truncate an earlier run's results for a references-only run
+      csv.open(csvPath), csv << csvHeader() << "\n";
     int runIndex = 0;
 
     for (const fs::path& scene : scenes) {
@@ -633,6 +638,8 @@ int main(int argc, char** argv)
       if (!ref.check.passed)
         throw std::runtime_error("the reference of " + sceneName + " failed its check against " +
                                  ref.check.checkChapter + ": no figure is measured against an untrusted reference");
+      if (o.referencesOnly)
+        continue;
 
       auto measure = [&](const fs::path& binDir, const BuildInfo& build, const std::string& chapter, RowKind kind,
                          bool isTime, double budget, int threadCount, std::uint64_t seed) {
@@ -669,34 +676,49 @@ int main(int argc, char** argv)
         std::fflush(stdout);
       };
 
-      for (const std::string& chapter : chapters) {
-        for (int spp : plan.sppLadder)
-          for (int s = 1; s <= plan.seeds; ++s)
-            measure(o.binDir, main, chapter, RowKind::Spp, false, spp, threads, std::uint64_t(s));
-        for (double t : plan.timeBudgets)
-          for (int s = 1; s <= plan.seeds; ++s)
-            measure(o.binDir, main, chapter, RowKind::Time, true, t, threads, std::uint64_t(s));
-        if (threads > 1) {
-          // The ladder must hold the same budget for the comparison; add it when the ladder lacks it.
-          if (std::find(plan.sppLadder.begin(), plan.sppLadder.end(), plan.threadsSpp) == plan.sppLadder.end())
-            for (int s = 1; s <= plan.seeds; ++s)
-              measure(o.binDir, main, chapter, RowKind::Spp, false, plan.threadsSpp, threads, std::uint64_t(s));
-          for (int s = 1; s <= plan.seeds; ++s)
-            measure(o.binDir, main, chapter, RowKind::Threads, false, plan.threadsSpp, 1, std::uint64_t(s));
-        }
-        if (floatBuild) {
-          if (!fs::exists(o.floatBinDir / chapter)) {
+      // Interleaved: seed by seed, budget by budget, the chapters (and each one's float build) one after the
+      // other, so that a change in the machine's load during the run falls on every chapter alike and the ratios
+      // between chapters, measured side by side, stay fair.
+      std::vector<std::string> floatChapters;
+      if (floatBuild)
+        for (const std::string& chapter : chapters) {
+          if (fs::exists(o.floatBinDir / chapter))
+            floatChapters.push_back(chapter);
+          else if (&scene == &scenes.front())
             context.notes.push_back("No float build of " + chapter + " in " + o.floatBinDir.string() + ".");
-            continue;
-          }
-          for (int s = 1; s <= plan.seeds; ++s)
-            measure(o.floatBinDir, *floatBuild, chapter, RowKind::Precision, false, plan.threadsSpp, threads,
-                    std::uint64_t(s));
-          for (double t : plan.timeBudgets)
-            for (int s = 1; s <= plan.seeds; ++s)
-              measure(o.floatBinDir, *floatBuild, chapter, RowKind::Precision, true, t, threads, std::uint64_t(s));
         }
+      auto hasFloat = [&](const std::string& c) {
+        return std::find(floatChapters.begin(), floatChapters.end(), c) != floatChapters.end();
+      };
+      const bool threadsSppOnLadder =
+          std::find(plan.sppLadder.begin(), plan.sppLadder.end(), plan.threadsSpp) != plan.sppLadder.end();
+      for (int s = 1; s <= plan.seeds; ++s) {
+        const auto seed = std::uint64_t(s);
+        for (int spp : plan.sppLadder)
+          for (const std::string& chapter : chapters)
+            measure(o.binDir, main, chapter, RowKind::Spp, false, spp, threads, seed);
+        for (const std::string& chapter : chapters) {
+          if (threads > 1) {
+            // The ladder must hold the same budget for the comparison; add it when the ladder lacks it.
+            if (!threadsSppOnLadder)
+              measure(o.binDir, main, chapter, RowKind::Spp, false, plan.threadsSpp, threads, seed);
+            measure(o.binDir, main, chapter, RowKind::Threads, false, plan.threadsSpp, 1, seed);
+          }
+          if (hasFloat(chapter))
+            measure(o.floatBinDir, *floatBuild, chapter, RowKind::Precision, false, plan.threadsSpp, threads, seed);
+        }
+        for (double t : plan.timeBudgets)
+          for (const std::string& chapter : chapters) {
+            measure(o.binDir, main, chapter, RowKind::Time, true, t, threads, seed);
+            if (hasFloat(chapter))
+              measure(o.floatBinDir, *floatBuild, chapter, RowKind::Precision, true, t, threads, seed);
+          }
       }
+    }
+    if (o.referencesOnly) {
+      fs::remove_all(o.outDir / "runs");
+      std::cout << "raylife_bench: every reference is in " << o.referenceDir.string() << " and passed its check\n";
+      return 0;
     }
     if (!floatBuild)
       context.notes.push_back("Float against double skipped: no float build (cmake --preset float && cmake --build "
