@@ -231,6 +231,14 @@ std::string cpuModel()
   return "unknown CPU";
 }
 
+// The 1-minute load average, or "unknown": how busy the machine was, which every timing depends on.
+std::string loadAverage()
+{
+  std::ifstream in("/proc/loadavg");
+  std::string first;
+  return in >> first ? first : std::string("unknown");
+}
+
 std::string utcNow()
 {
   const std::time_t t = std::time(nullptr);
@@ -622,6 +630,7 @@ int main(int argc, char** argv)
               << (floatBuild ? o.floatBinDir.string() : std::string("none")) << "\n  results: " << o.outDir.string()
               << "\n";
 
+    const std::string loadAtStart = loadAverage();
     std::vector<Row> rows;
     const fs::path csvPath = o.outDir / "results.csv";
     std::ofstream csv;
@@ -720,6 +729,9 @@ int main(int argc, char** argv)
       std::cout << "raylife_bench: every reference is in " << o.referenceDir.string() << " and passed its check\n";
       return 0;
     }
+    context.notes.push_back("Load average (1 minute) at the start " + loadAtStart + ", at the end " + loadAverage() +
+                            ", on " + std::to_string(std::thread::hardware_concurrency()) +
+                            " hardware threads: above that count, other jobs were competing for the cores.");
     if (!floatBuild)
       context.notes.push_back("Float against double skipped: no float build (cmake --preset float && cmake --build "
                               "--preset float, or --float-bin DIR).");
