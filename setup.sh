@@ -4,6 +4,7 @@
 #   ./setup.sh          build, tests and docs
 #   ./setup.sh --fuzz   also clang's libFuzzer runtime (tests/fuzz)
 #   ./setup.sh --browser also Chromium, for the docs screenshot check
+#   ./setup.sh --bench  also gnuplot, for the benchmark's plots (tools/bench, docs/benchmarks.md)
 set -euo pipefail
 
 packages=(
@@ -18,7 +19,8 @@ for arg in "$@"; do
   case "$arg" in
     --fuzz) packages+=(clang libclang-rt-14-dev) ;;
     --browser) packages+=(chromium) ;;
-    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser)" >&2; exit 2 ;;
+    --bench) packages+=(gnuplot-nox fonts-dejavu-core) ;;
+    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench)" >&2; exit 2 ;;
   esac
 done
 

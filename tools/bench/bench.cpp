@@ -1,0 +1,660 @@
+#include "bench.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <tuple>
+
+namespace raylife::bench {
+
+ErrorMetrics measureError(const Image& image, const Image& reference, const Image& referenceVariance)
+{
+  if (image.width != reference.width || image.height != reference.height ||
+      referenceVariance.width != reference.width || referenceVariance.height != reference.height)
+    throw std::invalid_argument("measureError: the image, the reference and its variance differ in size");
+  ErrorMetrics m;
+  const std::size_t n = image.pixels.size();
+  if (n == 0)
+    return m;
+  double sumSq = 0, sumRel = 0, sumRef = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = image.pixels[i], r = reference.pixels[i];
+    const double denominator = r * r + 0.01;
+    const double d2 = (x - r) * (x - r);
+    sumSq += d2;
+    sumRel += d2 / denominator;
+    sumRef += double(referenceVariance.pixels[i]) / denominator;
+  }
+  m.relativeMse = sumRel / double(n);
+  m.rmse = std::sqrt(sumSq / double(n));
+  m.referenceRelativeMse = sumRef / double(n);
+  return m;
+}
+
+LineFit fitLogLog(const std::vector<double>& x, const std::vector<double>& y)
+{
+  if (x.size() != y.size())
+    throw std::invalid_argument("fitLogLog: x and y differ in length");
+  std::vector<std::pair<double, double>> p;
+  for (std::size_t i = 0; i < x.size(); ++i)
+    if (x[i] > 0 && y[i] > 0 && std::isfinite(x[i]) && std::isfinite(y[i]))
+      p.emplace_back(std::log(x[i]), std::log(y[i]));
+  const double n = double(p.size());
+  double mx = 0, my = 0;
+  for (const auto& [a, b] : p) {
+    mx += a;
+    my += b;
+  }
+  if (p.size() < 2)
+    throw std::invalid_argument("fitLogLog: fewer than two positive points");
+  mx /= n;
+  my /= n;
+  double sxx = 0, sxy = 0, syy = 0;
+  for (const auto& [a, b] : p) {
+    sxx += (a - mx) * (a - mx);
+    sxy += (a - mx) * (b - my);
+    syy += (b - my) * (b - my);
+  }
+  if (sxx <= 0)
+    throw std::invalid_argument("fitLogLog: every point has the same x");
+  LineFit f;
+  f.slope = sxy / sxx;
+  f.intercept = my - f.slope * mx;
+  f.r2 = syy > 0 ? (sxy * sxy) / (sxx * syy) : 1.0;
+  f.points = int(p.size());
+  return f;
+}
+
+bool slopeAcceptable(double slope) { return std::abs(slope - kIdealSlope) <= kSlopeTolerance; }
+
+std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t hash)
+{
+  for (const char c : bytes) {
+    hash ^= std::uint64_t(static_cast<unsigned char>(c));
+    hash *= 0x100000001b3ULL;
+  }
+  return hash;
+}
+
+std::uint64_t fnv1a64File(const std::string& path, std::uint64_t hash)
+{
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw std::runtime_error("cannot read " + path);
+  std::vector<char> buffer(1 << 16);
+  while (in) {
+    in.read(buffer.data(), std::streamsize(buffer.size()));
+    hash = fnv1a64(std::string_view(buffer.data(), std::size_t(in.gcount())), hash);
+  }
+  if (in.bad())
+    throw std::runtime_error("cannot read " + path);
+  return hash;
+}
+
+std::string hexHash(std::uint64_t hash)
+{
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(hash));
+  return text;
+}
+
+std::uint64_t referenceHash(const ReferenceKey& key)
+{
+  std::uint64_t h = fnv1a64File(key.scenePath);
+  h = fnv1a64(std::string_view("\0scene-end\0", 11), h);
+  h = fnv1a64File(key.binaryPath, h);
+  std::string sizes = "|";
+  sizes.append(std::to_string(key.width)).append("x").append(std::to_string(key.height));
+  sizes.append("|spp=").append(std::to_string(key.spp)).append("|seed=").append(std::to_string(key.seed));
+  return fnv1a64(sizes, h);
+}
+
+RenderStats parseStats(const std::string& text)
+{
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(std::string("stats: not JSON: ") + e.what());
+  }
+  auto field = [&](const char* name) -> const nlohmann::json& {
+    if (!j.is_object() || !j.contains(name))
+      throw std::runtime_error(std::string("stats: no field \"") + name + "\"");
+    return j.at(name);
+  };
+  RenderStats s;
+  try {
+    s.chapter = field("chapter").get<std::string>();
+    s.width = field("width").get<int>();
+    s.height = field("height").get<int>();
+    s.spp = field("spp").get<int>();
+    s.seconds = field("seconds").get<double>();
+    s.rays = field("rays").get<std::uint64_t>();
+    s.badSamples = field("bad_samples").get<std::uint64_t>();
+    s.threads = field("threads").get<int>();
+    s.interrupted = field("interrupted").get<bool>();
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error(std::string("stats: a field has the wrong type: ") + e.what());
+  }
+  return s;
+}
+
+std::string toString(RowKind kind)
+{
+  switch (kind) {
+  case RowKind::Spp: return "spp";
+  case RowKind::Time: return "time";
+  case RowKind::Threads: return "threads";
+  case RowKind::Precision: return "precision";
+  }
+  return "?";
+}
+
+RowKind rowKindFromString(const std::string& text)
+{
+  for (RowKind k : {RowKind::Spp, RowKind::Time, RowKind::Threads, RowKind::Precision})
+    if (toString(k) == text)
+      return k;
+  throw std::invalid_argument("unknown row kind '" + text + "'");
+}
+
+double Row::efficiency() const
+{
+  return seconds > 0 && error.relativeMse > 0 ? 1.0 / (seconds * error.relativeMse) : 0.0;
+}
+
+namespace {
+
+const std::vector<std::string> kColumns = {
+    "mode",    "kind",    "scene",   "chapter",     "precision", "build", "threads",      "seed",    "budget",
+    "budget_unit", "spp", "seconds", "rays",        "bad_samples", "rel_mse", "rmse", "ref_rel_mse", "efficiency"};
+
+std::string quoteField(const std::string& s)
+{
+  if (s.find_first_of(",\"\n\r") == std::string::npos)
+    return s;
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"')
+      out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+// Full precision, so a CSV read back gives the same doubles.
+std::string exact(double x)
+{
+  char text[40];
+  std::snprintf(text, sizeof text, "%.17g", x);
+  return text;
+}
+
+double toDouble(const std::string& s, const std::string& column)
+{
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(s, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != s.size() || s.empty())
+    throw std::invalid_argument("CSV: column " + column + ": '" + s + "' is not a number");
+  return v;
+}
+
+} // namespace
+
+std::string csvHeader()
+{
+  std::string out;
+  for (std::size_t i = 0; i < kColumns.size(); ++i)
+    out += (i ? "," : "") + kColumns[i];
+  return out;
+}
+
+std::string csvLine(const Row& r)
+{
+  const std::vector<std::string> fields = {
+      r.mode,
+      toString(r.kind),
+      r.scene,
+      r.chapter,
+      r.precision,
+      r.build,
+      std::to_string(r.threads),
+      std::to_string(r.seed),
+      exact(r.budget),
+      r.budgetIsTime ? "s" : "spp",
+      std::to_string(r.spp),
+      exact(r.seconds),
+      std::to_string(r.rays),
+      std::to_string(r.badSamples),
+      exact(r.error.relativeMse),
+      exact(r.error.rmse),
+      exact(r.error.referenceRelativeMse),
+      exact(r.efficiency())};
+  std::string out;
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    if (i)
+      out += ',';
+    out += quoteField(fields[i]);
+  }
+  return out;
+}
+
+std::vector<std::string> splitCsvLine(const std::string& line)
+{
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        fields.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        fields.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      fields.emplace_back();
+    } else {
+      fields.back() += c;
+    }
+  }
+  if (quoted)
+    throw std::invalid_argument("CSV: unterminated quote in: " + line);
+  return fields;
+}
+
+std::vector<Row> parseCsv(const std::string& text)
+{
+  std::istringstream in(text);
+  std::string line;
+  if (!std::getline(in, line) || line != csvHeader())
+    throw std::invalid_argument("CSV: the first line is not the benchmark's header");
+  std::vector<Row> rows;
+  while (std::getline(in, line)) {
+    if (line.empty())
+      continue;
+    const std::vector<std::string> f = splitCsvLine(line);
+    if (f.size() != kColumns.size())
+      throw std::invalid_argument("CSV: a line has " + std::to_string(f.size()) + " fields, not " +
+                                  std::to_string(kColumns.size()) + ": " + line);
+    Row r;
+    r.mode = f[0];
+    r.kind = rowKindFromString(f[1]);
+    r.scene = f[2];
+    r.chapter = f[3];
+    r.precision = f[4];
+    r.build = f[5];
+    r.threads = int(toDouble(f[6], kColumns[6]));
+    r.seed = std::uint64_t(toDouble(f[7], kColumns[7]));
+    r.budget = toDouble(f[8], kColumns[8]);
+    if (f[9] != "s" && f[9] != "spp")
+      throw std::invalid_argument("CSV: budget_unit '" + f[9] + "' is neither s nor spp");
+    r.budgetIsTime = f[9] == "s";
+    r.spp = int(toDouble(f[10], kColumns[10]));
+    r.seconds = toDouble(f[11], kColumns[11]);
+    r.rays = std::uint64_t(toDouble(f[12], kColumns[12]));
+    r.badSamples = std::uint64_t(toDouble(f[13], kColumns[13]));
+    r.error.relativeMse = toDouble(f[14], kColumns[14]);
+    r.error.rmse = toDouble(f[15], kColumns[15]);
+    r.error.referenceRelativeMse = toDouble(f[16], kColumns[16]);
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+std::vector<LadderPoint> ladder(const std::vector<Row>& rows, const std::string& scene, const std::string& chapter,
+                                RowKind kind, const std::string& precision, int threads)
+{
+  std::map<std::pair<bool, double>, LadderPoint> groups;
+  for (const Row& r : rows) {
+    if (r.scene != scene || r.chapter != chapter || r.kind != kind || r.precision != precision)
+      continue;
+    if (threads > 0 && r.threads != threads)
+      continue;
+    LadderPoint& p = groups[{r.budgetIsTime, r.budget}];
+    p.budget = r.budget;
+    p.budgetIsTime = r.budgetIsTime;
+    p.spp += r.spp;
+    p.seconds += r.seconds;
+    p.relativeMse += r.error.relativeMse;
+    p.referenceRelativeMse += r.error.referenceRelativeMse;
+    p.rmse += r.error.rmse;
+    p.runs += 1;
+  }
+  std::vector<LadderPoint> out;
+  for (auto& [key, p] : groups) {
+    const double n = p.runs;
+    p.spp /= n;
+    p.seconds /= n;
+    p.relativeMse /= n;
+    p.referenceRelativeMse /= n;
+    p.rmse /= n;
+    out.push_back(p);
+  }
+  return out;
+}
+
+namespace {
+
+// Scenes and chapters in the order they first appear in the rows.
+std::vector<std::string> distinct(const std::vector<Row>& rows, std::string Row::*field)
+{
+  std::vector<std::string> out;
+  for (const Row& r : rows)
+    if (std::find(out.begin(), out.end(), r.*field) == out.end())
+      out.push_back(r.*field);
+  return out;
+}
+
+} // namespace
+
+std::vector<SlopeResult> fitSlopes(const std::vector<Row>& rows)
+{
+  std::vector<SlopeResult> out;
+  for (const std::string& scene : distinct(rows, &Row::scene))
+    for (const std::string& chapter : distinct(rows, &Row::chapter)) {
+      const std::vector<LadderPoint> points = ladder(rows, scene, chapter, RowKind::Spp, "double");
+      if (points.size() < 2)
+        continue;
+      std::vector<double> x, y, yRaw;
+      SlopeResult s{scene, chapter, {}, {}, false, 0};
+      for (const LadderPoint& p : points) {
+        x.push_back(p.spp);
+        yRaw.push_back(p.relativeMse);
+        y.push_back(p.relativeMse - p.referenceRelativeMse);
+        if (p.relativeMse > 0)
+          s.worstReferenceShare = std::max(s.worstReferenceShare, p.referenceRelativeMse / p.relativeMse);
+      }
+      try {
+        s.fit = fitLogLog(x, y);
+        s.rawFit = fitLogLog(x, yRaw);
+      } catch (const std::invalid_argument&) {
+        continue;
+      }
+      s.acceptable = slopeAcceptable(s.fit.slope);
+      out.push_back(s);
+    }
+  return out;
+}
+
+std::string formatNumber(double x, int digits)
+{
+  char text[48];
+  std::snprintf(text, sizeof text, "%.*g", digits, x);
+  return text;
+}
+
+namespace {
+
+std::string ratio(double a, double b) { return b > 0 && a > 0 ? formatNumber(a / b, 3) + "×" : "—"; }
+
+const LadderPoint* largestTime(const std::vector<LadderPoint>& points)
+{
+  const LadderPoint* best = nullptr;
+  for (const LadderPoint& p : points)
+    if (p.budgetIsTime && (!best || p.budget > best->budget))
+      best = &p;
+  return best;
+}
+
+const LadderPoint* atBudget(const std::vector<LadderPoint>& points, bool isTime, double budget)
+{
+  for (const LadderPoint& p : points)
+    if (p.budgetIsTime == isTime && p.budget == budget)
+      return &p;
+  return nullptr;
+}
+
+double efficiencyOf(const LadderPoint& p) { return p.seconds > 0 && p.relativeMse > 0 ? 1 / (p.seconds * p.relativeMse) : 0; }
+
+} // namespace
+
+std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& c)
+{
+  std::ostringstream md;
+  md << "# raylife benchmark: run time against error (" << c.mode << " mode)\n\n";
+  md << "- Run: " << c.date << "\n- Machine: " << c.machine << "\n- Build: " << c.build << "\n- Conditions: "
+     << c.conditions << "\n";
+  for (const std::string& n : c.notes)
+    md << "- " << n << "\n";
+  md << "\nRelative MSE is the mean over pixels and channels of (x − ref)² / (ref² + 0.01); efficiency is "
+        "1 / (seconds × relative MSE). Every figure is a mean over seeds; ratios are to "
+     << c.baselineChapter << " in the same run. Timings on a shared machine are noisy: compare ratios, not "
+                             "absolute seconds.\n";
+
+  const std::vector<SlopeResult> slopes = fitSlopes(rows);
+  for (const std::string& scene : distinct(rows, &Row::scene)) {
+    md << "\n## " << scene << "\n\n";
+    for (const ReferenceCheck& k : c.checks)
+      if (k.scene == scene) {
+        md << "Reference: " << k.referenceChapter << " at " << k.referenceSpp << " spp (cache key " << k.hash
+           << "), checked against " << k.checkChapter << " at " << k.checkSpp << " spp"
+           << (k.checkChapter == k.referenceChapter ? " with another seed (a self-check only: no second estimator "
+                                                      "was available)"
+                                                    : "")
+           << ": " << formatNumber(k.failedShare * 100, 3) << "% of channels with |z| > " << formatNumber(k.critical, 3)
+           << " (allowed " << formatNumber(k.maxFailedShare * 100, 3) << "%), total z = " << formatNumber(k.totalZ, 3)
+           << " → **" << (k.passed ? "trusted" : "NOT TRUSTED") << "**.\n\n";
+      }
+
+    // Equal time and efficiency, double build, ladder thread count.
+    std::vector<std::string> chapters;
+    for (const Row& r : rows)
+      if (r.scene == scene && std::find(chapters.begin(), chapters.end(), r.chapter) == chapters.end())
+        chapters.push_back(r.chapter);
+    const LadderPoint* base = nullptr;
+    std::vector<LadderPoint> baseTime = ladder(rows, scene, c.baselineChapter, RowKind::Time, "double");
+    base = largestTime(baseTime);
+    md << "| chapter | spp in " << (base ? formatNumber(base->budget, 3) + " s" : "equal time")
+       << " | seconds | rel. MSE at equal time | vs " << c.baselineChapter << " | efficiency 1/(s·relMSE) | vs "
+       << c.baselineChapter << " | slope of log MSE vs log spp |\n|---|---|---|---|---|---|---|---|\n";
+    for (const std::string& chapter : chapters) {
+      const std::vector<LadderPoint> t = ladder(rows, scene, chapter, RowKind::Time, "double");
+      const LadderPoint* p = largestTime(t);
+      std::string slope = "—";
+      for (const SlopeResult& s : slopes)
+        if (s.scene == scene && s.chapter == chapter)
+          slope = formatNumber(s.fit.slope, 3) + (s.acceptable ? " (ok)" : " **FLAGGED**");
+      if (!p) {
+        md << "| " << chapter << " | — | — | — | — | — | — | " << slope << " |\n";
+        continue;
+      }
+      md << "| " << chapter << " | " << formatNumber(p->spp, 4) << " | " << formatNumber(p->seconds, 3) << " | "
+         << formatNumber(p->relativeMse, 4) << " | " << (base ? ratio(p->relativeMse, base->relativeMse) : "—")
+         << " | " << formatNumber(efficiencyOf(*p), 4) << " | "
+         << (base ? ratio(efficiencyOf(*p), efficiencyOf(*base)) : "—") << " | " << slope << " |\n";
+    }
+
+    // Every equal-time budget, for the error at each.
+    md << "\nRelative MSE at each equal-time budget:\n\n| chapter |";
+    std::set<double> budgets;
+    for (const Row& r : rows)
+      if (r.scene == scene && r.kind == RowKind::Time && r.precision == "double")
+        budgets.insert(r.budget);
+    for (double b : budgets)
+      md << " " << formatNumber(b, 3) << " s |";
+    md << "\n|---|";
+    for (std::size_t i = 0; i < budgets.size(); ++i)
+      md << "---|";
+    md << "\n";
+    for (const std::string& chapter : chapters) {
+      const std::vector<LadderPoint> t = ladder(rows, scene, chapter, RowKind::Time, "double");
+      md << "| " << chapter << " |";
+      for (double b : budgets) {
+        const LadderPoint* p = atBudget(t, true, b);
+        md << " " << (p ? formatNumber(p->relativeMse, 4) + " (" + formatNumber(p->spp, 4) + " spp)" : "—") << " |";
+      }
+      md << "\n";
+    }
+  }
+
+  md << "\n## Slopes\n\nFitted by least squares to log(mean relative MSE − the reference's own share) against "
+        "log(spp) over the spp ladder; an unbiased estimator has −1, and a slope outside −1 ± "
+     << kSlopeTolerance << " is flagged.\n\n| scene | chapter | slope | R² | points | slope of the raw MSE | "
+                           "largest reference share | verdict |\n|---|---|---|---|---|---|---|---|\n";
+  for (const SlopeResult& s : slopes)
+    md << "| " << s.scene << " | " << s.chapter << " | " << formatNumber(s.fit.slope, 4) << " | "
+       << formatNumber(s.fit.r2, 4) << " | " << s.fit.points << " | " << formatNumber(s.rawFit.slope, 4) << " | "
+       << formatNumber(s.worstReferenceShare * 100, 3) << "% | " << (s.acceptable ? "within ±0.15 of −1" : "**FLAGGED**")
+       << " |\n";
+
+  // Thread scaling: the Threads rows against the ladder's rows at the same spp budget.
+  bool anyThreads = false;
+  std::ostringstream th;
+  th << "\n## Thread scaling\n\nThe same spp budget and seeds on 1 thread and on the ladder's thread count. The "
+        "images must be bit-identical (same seed), so the error must be equal.\n\n| scene | chapter | spp | "
+        "threads | seconds | threads | seconds | speed-up | same error |\n|---|---|---|---|---|---|---|---|---|\n";
+  for (const std::string& scene : distinct(rows, &Row::scene))
+    for (const std::string& chapter : distinct(rows, &Row::chapter))
+      for (const Row& t : rows) {
+        if (t.kind != RowKind::Threads || t.scene != scene || t.chapter != chapter)
+          continue;
+        // One table line per (scene, chapter, budget, thread count): the first row of the group stands for it.
+        bool first = true;
+        for (const Row& u : rows) {
+          if (&u == &t)
+            break;
+          if (u.kind == RowKind::Threads && u.scene == scene && u.chapter == chapter && u.budget == t.budget &&
+              u.threads == t.threads)
+            first = false;
+        }
+        if (!first)
+          continue;
+        const std::vector<LadderPoint> few = ladder(rows, scene, chapter, RowKind::Threads, "double", t.threads);
+        const LadderPoint* a = atBudget(few, false, t.budget);
+        // The ladder's rows at this budget and the seeds the thread rows used.
+        int manyThreads = 0;
+        double manySeconds = 0;
+        int n = 0;
+        bool same = true;
+        for (const Row& m : rows)
+          if (m.kind == RowKind::Spp && m.scene == scene && m.chapter == chapter && m.precision == "double" &&
+              m.budget == t.budget && !m.budgetIsTime) {
+            for (const Row& o : rows)
+              if (o.kind == RowKind::Threads && o.scene == scene && o.chapter == chapter && o.budget == t.budget &&
+                  o.threads == t.threads && o.seed == m.seed) {
+                manySeconds += m.seconds;
+                manyThreads = m.threads;
+                ++n;
+                same = same && o.error.relativeMse == m.error.relativeMse;
+              }
+          }
+        if (!a || n == 0)
+          continue;
+        anyThreads = true;
+        manySeconds /= n;
+        th << "| " << scene << " | " << chapter << " | " << formatNumber(t.budget, 4) << " | " << t.threads << " | "
+           << formatNumber(a->seconds, 3) << " | " << manyThreads << " | " << formatNumber(manySeconds, 3) << " | "
+           << ratio(a->seconds, manySeconds) << " | " << (same ? "yes" : "**NO**") << " |\n";
+      }
+  if (anyThreads)
+    md << th.str();
+
+  // Float against double.
+  bool anyFloat = false;
+  std::ostringstream fl;
+  fl << "\n## Float against double\n\nThe same chapter built with `RAYLIFE_REAL=float` (the `float` preset) and "
+        "with double, against the same (double) reference.\n\n| scene | chapter | precision | budget | spp | "
+        "seconds | rel. MSE | efficiency |\n|---|---|---|---|---|---|---|---|\n";
+  for (const std::string& scene : distinct(rows, &Row::scene))
+    for (const std::string& chapter : distinct(rows, &Row::chapter)) {
+      const std::vector<LadderPoint> f = ladder(rows, scene, chapter, RowKind::Precision, "float");
+      if (f.empty())
+        continue;
+      anyFloat = true;
+      const std::vector<LadderPoint> dSpp = ladder(rows, scene, chapter, RowKind::Spp, "double");
+      const std::vector<LadderPoint> dTime = ladder(rows, scene, chapter, RowKind::Time, "double");
+      for (const LadderPoint& p : f) {
+        const LadderPoint* d = p.budgetIsTime ? atBudget(dTime, true, p.budget) : atBudget(dSpp, false, p.budget);
+        const std::string budget = formatNumber(p.budget, 4) + (p.budgetIsTime ? " s" : " spp");
+        for (const auto& [name, q] : {std::pair{"double", d}, std::pair{"float", &p}}) {
+          if (!q)
+            continue;
+          fl << "| " << scene << " | " << chapter << " | " << name << " | " << budget << " | "
+             << formatNumber(q->spp, 4) << " | " << formatNumber(q->seconds, 3) << " | "
+             << formatNumber(q->relativeMse, 4) << " | " << formatNumber(efficiencyOf(*q), 4) << " |\n";
+        }
+      }
+    }
+  if (anyFloat)
+    md << fl.str();
+  return md.str();
+}
+
+std::string gnuplotScript(const std::vector<PlotPanel>& panels, const std::string& xLabel, const std::string& yLabel,
+                          const std::string& outputBase)
+{
+  const int width = 560 * std::max<int>(1, int(panels.size())), height = 480;
+  std::ostringstream gp;
+  gp << "# Drawn by raylife_bench; run with: gnuplot THIS_FILE\n";
+  // The data, inlined as named blocks so the script stands alone.
+  for (std::size_t p = 0; p < panels.size(); ++p)
+    for (std::size_t s = 0; s < panels[p].series.size(); ++s) {
+      const Series& se = panels[p].series[s];
+      gp << "$d" << p << "_" << s << " << EOD\n";
+      for (std::size_t i = 0; i < se.x.size(); ++i)
+        if (se.x[i] > 0 && se.y[i] > 0)
+          gp << formatNumber(se.x[i], 10) << " " << formatNumber(se.y[i], 10) << "\n";
+      gp << "EOD\n";
+    }
+  auto escape = [](const std::string& s) {
+    std::string out;
+    for (char ch : s) {
+      if (ch == '"' || ch == '\\')
+        out += '\\';
+      out += ch;
+    }
+    return out;
+  };
+  gp << "set logscale xy\nset format x '%g'\nset format y '%.0e'\nset grid xtics ytics mxtics mytics lc rgb '#dddddd'\n"
+     << "set key top right box opaque\nset xlabel \"" << escape(xLabel) << "\"\nset ylabel \"" << escape(yLabel)
+     << "\"\n";
+  for (const std::string& terminal : {std::string("svg size ") + std::to_string(width) + "," +
+                                          std::to_string(height) + " dynamic noenhanced background '#ffffff' font 'Sans,12'",
+                                      std::string("pngcairo size ") + std::to_string(width) + "," +
+                                          std::to_string(height) + " noenhanced font 'Sans,10'"}) {
+    const std::string ext = terminal.rfind("svg", 0) == 0 ? ".svg" : ".png";
+    gp << "set terminal " << terminal << "\nset output \"" << escape(outputBase + ext) << "\"\n";
+    gp << "set multiplot layout 1," << std::max<std::size_t>(1, panels.size()) << "\n";
+    for (std::size_t p = 0; p < panels.size(); ++p) {
+      const PlotPanel& panel = panels[p];
+      gp << "set title \"" << escape(panel.title) << "\"\n";
+      gp << "plot ";
+      bool firstItem = true;
+      for (std::size_t s = 0; s < panel.series.size(); ++s) {
+        const Series& se = panel.series[s];
+        gp << (firstItem ? "" : ", \\\n     ") << "$d" << p << "_" << s << " using 1:2 with "
+           << (se.pointsOnly ? "points pt 7 ps 1.2" : "linespoints pt 7 ps 0.8 lw 2") << " lc " << (s + 1)
+           << " title \"" << escape(se.label) << "\"";
+        firstItem = false;
+      }
+      if (panel.anchor) {
+        const auto [ax, ay] = *panel.anchor;
+        gp << (firstItem ? "" : ", \\\n     ") << formatNumber(ax * ay, 10)
+           << " / x with lines dt 2 lw 1.5 lc rgb '#555555' title \"ideal 1/N\"";
+        firstItem = false;
+      }
+      if (firstItem)
+        gp << "1/0 notitle";
+      gp << "\n";
+    }
+    gp << "unset multiplot\nset output\n";
+  }
+  return gp.str();
+}
+
+} // namespace raylife::bench

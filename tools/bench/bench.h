@@ -1,0 +1,217 @@
+/// @file bench.h
+/// @brief The benchmark's own logic, apart from running programs: the error metric, the slope fit, the reference
+/// cache key, the CSV rows, the render statistics, the summary table and the plot script (DESIGN.md §7).
+///
+/// Everything here is a pure function of its inputs, so tests/bench checks it without rendering anything.
+#pragma once
+
+#include "film.h"
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace raylife::bench {
+
+/// The error of one render against a reference, over every pixel and channel.
+struct ErrorMetrics {
+  /// Mean of (x − ref)² / (ref² + 0.01): the relative MSE of DESIGN.md §7 (the same as compareImages()).
+  double relativeMse = 0;
+  /// √(mean of (x − ref)²), in units of radiance.
+  double rmse = 0;
+  /// Mean of var(ref) / (ref² + 0.01): the part of relativeMse that the reference's own noise contributes on
+  /// average (the expectation of (x − ref)² is var(x) + bias² + var(ref) for an independent reference).
+  double referenceRelativeMse = 0;
+};
+
+/// The error of `image` against `reference`, whose per-pixel variance of the mean is `referenceVariance`.
+/// @throws std::invalid_argument when the three images differ in size.
+ErrorMetrics measureError(const Image& image, const Image& reference, const Image& referenceVariance);
+
+/// A straight line y = intercept + slope · x fitted by least squares.
+struct LineFit {
+  double slope = 0;     ///< dy/dx.
+  double intercept = 0; ///< y at x = 0.
+  double r2 = 0;        ///< Coefficient of determination, in [0, 1] (1 when every point is on the line).
+  int points = 0;       ///< Points used.
+};
+
+/// Least-squares fit of log(y) against log(x) over the points with x > 0 and y > 0 (others are skipped).
+/// @throws std::invalid_argument when fewer than two points with distinct x remain.
+LineFit fitLogLog(const std::vector<double>& x, const std::vector<double>& y);
+
+/// The slope an unbiased Monte Carlo estimator's MSE has against samples per pixel.
+inline constexpr double kIdealSlope = -1.0;
+/// How far a fitted slope may lie from kIdealSlope before the report flags it (issue 8).
+inline constexpr double kSlopeTolerance = 0.15;
+/// True when `slope` lies within kSlopeTolerance of kIdealSlope.
+bool slopeAcceptable(double slope);
+
+/// FNV-1a, 64 bits (Fowler, Noll, Vo): a stable, portable hash of bytes. Continue a hash by passing the
+/// previous value as `hash`.
+std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t hash = 0xcbf29ce484222325ULL);
+/// FNV-1a 64 of a file's bytes, continuing `hash`. @throws std::runtime_error when it cannot be read.
+std::uint64_t fnv1a64File(const std::string& path, std::uint64_t hash = 0xcbf29ce484222325ULL);
+/// The hash as 16 lower-case hexadecimal digits.
+std::string hexHash(std::uint64_t hash);
+
+/// What identifies a reference render: the cache key is a hash of all of it.
+struct ReferenceKey {
+  std::string scenePath;  ///< The scene file (its bytes are hashed, not its name).
+  std::string binaryPath; ///< The chapter program (its bytes are hashed).
+  int width = 0;          ///< Pixels.
+  int height = 0;         ///< Pixels.
+  int spp = 0;            ///< Samples per pixel.
+  std::uint64_t seed = 0; ///< --seed.
+};
+/// FNV-1a 64 of the scene's bytes, the binary's bytes, and width, height, spp and seed.
+/// @throws std::runtime_error when a file cannot be read.
+std::uint64_t referenceHash(const ReferenceKey& key);
+
+/// The figures a chapter writes with --stats (render_loop.cpp).
+struct RenderStats {
+  std::string chapter;      ///< The binary's name.
+  int width = 0;            ///< Pixels.
+  int height = 0;           ///< Pixels.
+  int spp = 0;              ///< Samples every pixel received.
+  double seconds = 0;       ///< Wall-clock time of the render loop (not process start or file writing).
+  std::uint64_t rays = 0;   ///< Rays traced.
+  std::uint64_t badSamples = 0; ///< Samples replaced by 0.
+  int threads = 0;          ///< Threads used.
+  bool interrupted = false; ///< Stopped early.
+};
+/// Parses a --stats JSON text. @throws std::runtime_error naming the missing or malformed field.
+RenderStats parseStats(const std::string& json);
+
+/// What a benchmark row measured.
+enum class RowKind {
+  Spp,       ///< A fixed samples-per-pixel budget (the spp ladder).
+  Time,      ///< A fixed wall-clock budget (--time): equal-time comparisons.
+  Threads,   ///< A fixed spp budget on a thread count other than the ladder's (thread scaling).
+  Precision, ///< A fixed budget of a build of another precision (float against double).
+};
+/// "spp", "time", "threads" or "precision".
+std::string toString(RowKind kind);
+/// The inverse of toString(RowKind). @throws std::invalid_argument.
+RowKind rowKindFromString(const std::string& text);
+
+/// One render of the benchmark: one line of results.csv.
+struct Row {
+  std::string mode;       ///< "quick" or "full".
+  RowKind kind = RowKind::Spp; ///< What was measured.
+  std::string scene;      ///< Scene file name, e.g. "cornell.json".
+  std::string chapter;    ///< Binary name, e.g. "step06_path_tracer".
+  std::string precision;  ///< "double" or "float".
+  std::string build;      ///< Compiler, version and flags of the binary's build.
+  int threads = 0;        ///< Threads used.
+  std::uint64_t seed = 0; ///< --seed.
+  double budget = 0;      ///< The budget asked for: spp (kinds Spp, Threads, Precision-spp) or seconds.
+  bool budgetIsTime = false; ///< True when `budget` is seconds (--time), false when it is spp (--spp).
+  int spp = 0;            ///< Samples per pixel rendered.
+  double seconds = 0;     ///< Render seconds.
+  std::uint64_t rays = 0; ///< Rays traced.
+  std::uint64_t badSamples = 0; ///< Samples replaced by 0.
+  ErrorMetrics error;     ///< Against the scene's reference.
+  /// 1 / (seconds × relative MSE): the efficiency of DESIGN.md §7 (0 when either factor is 0).
+  double efficiency() const;
+};
+
+/// The CSV header line (no newline): the column names, in order.
+std::string csvHeader();
+/// One CSV line (no newline) for `row`, fields quoted where they contain a comma, a quote or a line break.
+std::string csvLine(const Row& row);
+/// Splits one CSV line into fields (RFC 4180 quoting). @throws std::invalid_argument on an unterminated quote.
+std::vector<std::string> splitCsvLine(const std::string& line);
+/// Parses a whole CSV text written by csvHeader() and csvLine(). @throws std::invalid_argument on a line that
+/// has not the header's columns or a malformed number.
+std::vector<Row> parseCsv(const std::string& text);
+
+/// One line of a plot: a label and its (x, y) points, in drawing order.
+struct Series {
+  std::string label;           ///< Shown in the key.
+  std::vector<double> x;       ///< Abscissae.
+  std::vector<double> y;       ///< Ordinates.
+  bool pointsOnly = false;     ///< Markers without a connecting line.
+};
+
+/// The per-chapter means over seeds of one scene's rows of one kind: the points the plots and the fit use.
+struct LadderPoint {
+  double budget = 0;       ///< The budget (spp or seconds).
+  bool budgetIsTime = false; ///< True when `budget` is seconds.
+  double spp = 0;          ///< Mean spp rendered.
+  double seconds = 0;      ///< Mean seconds.
+  double relativeMse = 0;  ///< Mean relative MSE.
+  double referenceRelativeMse = 0; ///< Mean reference share (see ErrorMetrics).
+  double rmse = 0;         ///< Mean RMSE.
+  int runs = 0;            ///< Seeds averaged.
+};
+/// Groups `rows` of `scene`, `chapter`, `kind` and `precision` by budget and averages them over seeds,
+/// ordered by spp budgets first, then time budgets, each ascending. Only rows on `threads` threads count
+/// (any thread count when 0).
+std::vector<LadderPoint> ladder(const std::vector<Row>& rows, const std::string& scene, const std::string& chapter,
+                                RowKind kind, const std::string& precision, int threads = 0);
+
+/// The slope of one chapter on one scene: log relative MSE (less the reference's share) against log spp.
+struct SlopeResult {
+  std::string scene;   ///< Scene.
+  std::string chapter; ///< Chapter.
+  LineFit fit;         ///< Of the reference-corrected error.
+  LineFit rawFit;      ///< Of the relative MSE as measured.
+  bool acceptable = false; ///< slopeAcceptable(fit.slope).
+  double worstReferenceShare = 0; ///< Largest reference share / relative MSE over the ladder, in [0, 1].
+};
+/// Fits the spp ladder of each (scene, chapter) in `rows` (double precision only).
+std::vector<SlopeResult> fitSlopes(const std::vector<Row>& rows);
+
+/// What the reference check found, for the summary.
+struct ReferenceCheck {
+  std::string scene;          ///< Scene.
+  std::string referenceChapter; ///< The estimator of the reference.
+  std::string checkChapter;   ///< The second estimator (may equal referenceChapter: a self-check only).
+  int referenceSpp = 0;       ///< Samples per pixel of the reference.
+  int checkSpp = 0;           ///< Samples per pixel of the second render.
+  double critical = 0;        ///< |z| above which a channel fails.
+  double failedShare = 0;     ///< Share of channels over `critical`.
+  double maxFailedShare = 0;  ///< The largest share allowed.
+  double totalZ = 0;          ///< z of the difference of the image means.
+  bool passed = false;        ///< |totalZ| ≤ critical and failedShare ≤ maxFailedShare.
+  std::string hash;           ///< The reference's cache key.
+};
+
+/// Everything the summary needs besides the rows.
+struct SummaryContext {
+  std::string mode;            ///< "quick" or "full".
+  std::string date;            ///< UTC date and time of the run.
+  std::string machine;         ///< CPU model and core count.
+  std::string conditions;      ///< Image size, ladder, seeds, budgets; anything a reader must know.
+  std::string build;           ///< The double build's flags.
+  std::string baselineChapter = "step06_path_tracer"; ///< Ratios are to this chapter.
+  std::vector<ReferenceCheck> checks; ///< One per scene.
+  std::vector<std::string> notes;     ///< Extra lines (skipped comparisons, say).
+};
+
+/// The Markdown summary: per scene the equal-time error and efficiency of each chapter with ratios to the
+/// baseline chapter, the slopes (flagged outside ±kSlopeTolerance of −1), thread scaling, float against double,
+/// and the reference checks.
+std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& context);
+
+/// A gnuplot script drawing, per scene, log–log panels of `series` with the ideal 1/N slope through `anchor`
+/// (a point of the panel's first series) into `outputBase`.svg and `outputBase`.png.
+struct PlotPanel {
+  std::string title;            ///< Panel title (the scene).
+  std::vector<Series> series;   ///< Lines and markers.
+  std::optional<std::pair<double, double>> anchor; ///< Where the ideal 1/N line passes.
+};
+/// The gnuplot script for `panels` side by side, `xLabel` against `yLabel`; data are inlined, so the script
+/// stands alone.
+std::string gnuplotScript(const std::vector<PlotPanel>& panels, const std::string& xLabel, const std::string& yLabel,
+                          const std::string& outputBase);
+
+/// `x` with %g-like formatting at `digits` significant digits.
+std::string formatNumber(double x, int digits = 4);
+
+} // namespace raylife::bench
