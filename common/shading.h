@@ -5,7 +5,6 @@
 #include "hit.h"
 #include "light.h"
 #include "math.h"
-#include "scene.h"
 
 #include <algorithm>
 
@@ -23,24 +22,5 @@ inline Vec3 facingNormal(const Hit& hit, const Vec3& rayDirection)
 {
   return hit.frontFace(rayDirection) ? hit.normal : -hit.normal;
 }
-
-// [directLighting]
-/// Chapter 4's local shading as one call, for the chapters that build on it (chapter 5 shades its diffuse hits
-/// with it): ambient·C plus Lambert's law for every point light that the shadow ray finds unblocked.
-///
-/// @param hit the shaded point. @param N the unit normal facing the viewer (facingNormal). @param C colour in
-///        [0, 1]. @return radiance, ≥ 0. Traces one shadow ray per light in front of the surface.
-inline Color directLighting(const Scene& scene, const Hit& hit, const Vec3& N, const Color& C)
-{
-  Color I = scene.ambient * C;
-  for (const PointLight& light : scene.lights) {
-    const std::optional<LightArrival> in = light.arrivalAt(hit.point);
-    if (!in || glm::dot(in->direction, N) <= 0 || scene.occluded(spawnRayTo(hit, light.position)))
-      continue;
-    I += lambert(C, N, *in);
-  }
-  return I;
-}
-// [directLighting]
 
 } // namespace raylife
