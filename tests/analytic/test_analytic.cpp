@@ -204,6 +204,8 @@ TEST_CASE("a diffuse floor under a spherical light: L = ρ Le (R/D)² cosθ (sof
   report("floor under a spherical light", judge(r.mean, none, e.mean, e.variance, e.use));
 }
 
+// In invisible_glass.json the camera also sits inside a glass ball of index 1, so every primary ray starts inside
+// glass and leaves it.
 TEST_CASE("glass of index 1 and colour 1 is invisible to chapter 5")
 {
   const ChapterRender with = runChapterBinary(RAYLIFE_STEP05, kScenes + "invisible_glass.json", "--spp 4", "w5a");
