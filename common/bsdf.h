@@ -63,6 +63,7 @@ struct BsdfSample {
 
 /// The Lambertian BRDF, ρ/π per steradian when wo and wi lie on the same side, 0 otherwise.
 /// @param albedo ρ in [0, 1] per channel: the share of light reflected, whatever the direction of arrival.
+/// @param wo,wi unit directions in the local frame (towards the viewer, towards the light).
 Color lambertianEval(const Color& albedo, const Vec3& wo, const Vec3& wi);
 /// The pdf of lambertianSample: cos-weighted, |cosθi|/π on wo's side, 0 on the other.
 Real lambertianPdf(const Vec3& wo, const Vec3& wi);
@@ -79,7 +80,8 @@ std::optional<BsdfSample> mirrorSample(const Color& tint, const Vec3& wo);
 /// The smooth dielectric: reflection with probability F and refraction with probability 1 − F, F the Fresnel
 /// reflectance (fresnelDielectric), so each sample's weight is `tint` (per channel in [0, 1]). Under total
 /// internal reflection F = 1 and the sample always reflects.
-/// @param eta η_inside/η_outside, > 0. @param uChoice uniform in [0, 1): chooses the lobe.
+/// @param tint colour C in [0, 1] per channel. @param eta η_inside/η_outside, > 0.
+/// @param wo unit direction towards the viewer, local frame. @param uChoice uniform in [0, 1): chooses the lobe.
 std::optional<BsdfSample> dielectricSample(const Color& tint, Real eta, const Vec3& wo, Real uChoice);
 
 // ---- Glossy: normalised (modified) Phong ---------------------------------------------------------------------
@@ -92,6 +94,7 @@ Real phongExponent(Real roughness);
 /// angle between wi and the mirror direction of wo, on wo's side only. Symmetric in wo and wi (reciprocal), and
 /// its directional albedo is at most ρ_s (exactly ρ_s at normal incidence), so it conserves energy.
 /// @param albedo ρ_s in [0, 1] per channel. @param exponent n ≥ 0.
+/// @param wo,wi unit directions in the local frame (towards the viewer, towards the light).
 Color phongEval(const Color& albedo, Real exponent, const Vec3& wo, const Vec3& wi);
 /// The pdf of phongSample: (n + 1)/(2π) cosⁿα on wo's side, 0 on the other.
 Real phongPdf(Real exponent, const Vec3& wo, const Vec3& wi);
@@ -105,7 +108,8 @@ std::optional<BsdfSample> phongSample(const Color& albedo, Real exponent, const 
 Color bsdfEval(const Material& m, const Vec3& wo, const Vec3& wi);
 /// The pdf with which bsdfSample chooses wi (local frame); 0 for mirror and glass.
 Real bsdfPdf(const Material& m, const Vec3& wo, const Vec3& wi);
-/// Samples wi for material `m` (local frame). @param u uniform in [0, 1)² (the direction).
+/// Samples wi for material `m` (local frame). @param m the material. @param wo unit direction towards the viewer.
+/// @param u uniform in [0, 1)² (the direction).
 /// @param uChoice uniform in [0, 1) (which lobe, for glass). Nothing when the sample carries no light.
 std::optional<BsdfSample> bsdfSample(const Material& m, const Vec3& wo, Vec2 u, Real uChoice);
 
