@@ -79,7 +79,9 @@ std::optional<BsdfSample> mirrorSample(const Color& tint, const Vec3& wo);
 
 /// The smooth dielectric: reflection with probability F and refraction with probability 1 − F, F the Fresnel
 /// reflectance (fresnelDielectric), so each sample's weight is `tint` (per channel in [0, 1]). Under total
-/// internal reflection F = 1 and the sample always reflects.
+/// internal reflection F = 1 and the sample always reflects. Radiance is not scaled by η² on crossing: for a path
+/// that enters and leaves a closed object (every path from a camera outside glass to a light outside it) the factors
+/// cancel, and leaving them out keeps the weight exactly the tint.
 /// @param tint colour C in [0, 1] per channel. @param eta η_inside/η_outside, > 0.
 /// @param wo unit direction towards the viewer, local frame. @param uChoice uniform in [0, 1): chooses the lobe.
 std::optional<BsdfSample> dielectricSample(const Color& tint, Real eta, const Vec3& wo, Real uChoice);
