@@ -83,8 +83,8 @@ public:
       centroids = centroids.merged(items_[i].centroid);
     }
     for (int a = 0; a < 3; ++a) {
-      nodes[nodeIndex].lo[a] = roundDown(bounds.lo[a]);
-      nodes[nodeIndex].hi[a] = roundUp(bounds.hi[a]);
+      nodes[nodeIndex].bounds[0][a] = roundDown(bounds.lo[a]);
+      nodes[nodeIndex].bounds[1][a] = roundUp(bounds.hi[a]);
     }
 
     const std::optional<Split> split = chooseSplit(begin, end, bounds, centroids, level);
@@ -235,11 +235,12 @@ private:
 
 // ---- Traversal ------------------------------------------------------------------------------------------------
 
-// A ray prepared for box tests: 1/d per axis (±∞ where d is ±0) and which of each box's faces it meets first.
+// A ray prepared for box tests: 1/d per axis (±∞ where d is ±0), and per axis which corner of a box (0: lo,
+// 1: hi) holds the face the ray meets first.
 struct BoxRay {
   Vec3 origin;
   Vec3 invDir;
-  bool negative[3];
+  int nearCorner[3];
 };
 
 /// [slab]
@@ -250,18 +251,26 @@ struct BoxRay {
 // kBoxMargin so that rounding never culls a box the ray touches.
 inline bool hitsBox(const BvhNode& node, const BoxRay& r, Real tmin, Real tmax)
 {
-  Real tEnter = -kInfinity, tExit = kInfinity;
-  for (int a = 0; a < 3; ++a) {
-    const Real nearPlane = r.negative[a] ? Real(node.hi[a]) : Real(node.lo[a]);
-    const Real farPlane = r.negative[a] ? Real(node.lo[a]) : Real(node.hi[a]);
-    const Real tNear = (nearPlane - r.origin[a]) * r.invDir[a];
-    const Real tFar = (farPlane - r.origin[a]) * r.invDir[a];
-    tEnter = tNear > tEnter ? tNear : tEnter; // a NaN never wins a comparison
-    tExit = tFar < tExit ? tFar : tExit;
-  }
-  tEnter -= std::abs(tEnter) * kBoxMargin<Real>;
-  tExit += std::abs(tExit) * kBoxMargin<Real>;
-  return std::max(tEnter, tmin) <= std::min(tExit, tmax);
+  // Entry and exit of each slab; the near face is lo for a positive direction, hi for a negative one.
+  const Real txNear = (Real(node.bounds[r.nearCorner[0]].x) - r.origin.x) * r.invDir.x;
+  const Real txFar = (Real(node.bounds[1 - r.nearCorner[0]].x) - r.origin.x) * r.invDir.x;
+  const Real tyNear = (Real(node.bounds[r.nearCorner[1]].y) - r.origin.y) * r.invDir.y;
+  const Real tyFar = (Real(node.bounds[1 - r.nearCorner[1]].y) - r.origin.y) * r.invDir.y;
+  const Real tzNear = (Real(node.bounds[r.nearCorner[2]].z) - r.origin.z) * r.invDir.z;
+  const Real tzFar = (Real(node.bounds[1 - r.nearCorner[2]].z) - r.origin.z) * r.invDir.z;
+  // The largest entry and the smallest exit; a NaN never wins a comparison, so it leaves the slab unbounded.
+  Real tEnter = -kInfinity;
+  tEnter = txNear > tEnter ? txNear : tEnter;
+  tEnter = tyNear > tEnter ? tyNear : tEnter;
+  tEnter = tzNear > tEnter ? tzNear : tEnter;
+  Real tExit = kInfinity;
+  tExit = txFar < tExit ? txFar : tExit;
+  tExit = tyFar < tExit ? tyFar : tExit;
+  tExit = tzFar < tExit ? tzFar : tExit;
+  // Widen for rounding (by scaling, which keeps ±∞ as they are), then intersect with the ray's own interval.
+  tEnter *= tEnter > 0 ? 1 - kBoxMargin<Real> : 1 + kBoxMargin<Real>;
+  tExit *= tExit > 0 ? 1 + kBoxMargin<Real> : 1 - kBoxMargin<Real>;
+  return (tEnter > tmin ? tEnter : tmin) <= (tExit < tmax ? tExit : tmax);
 }
 /// [slab]
 
@@ -292,13 +301,15 @@ Bvh::Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options)
 }
 
 /// [traverse]
-template <bool kAnyHit, bool kCountWork> Bvh::Traversal Bvh::traverse(const Ray& ray) const
+// (flatten: inline the sphere test into the loop, as it is in the scene's flat loop; a call per sphere costs more
+// than the test.)
+template <bool kAnyHit, bool kCountWork> [[gnu::flatten]] Bvh::Traversal Bvh::traverse(const Ray& ray) const
 {
   Traversal found{ray.tmax, -1, BvhWork{}};
   if (nodes_.empty())
     return found;
   const Vec3 invDir = Real(1) / ray.direction;
-  const BoxRay boxRay{ray.origin, invDir, {invDir.x < 0, invDir.y < 0, invDir.z < 0}};
+  const BoxRay boxRay{ray.origin, invDir, {int(invDir.x < 0), int(invDir.y < 0), int(invDir.z < 0)}};
 
   // Depth first, from a small stack of nodes still to visit; the nearer child always first.
   std::uint32_t stack[kMaxDepth];
@@ -330,7 +341,7 @@ template <bool kAnyHit, bool kCountWork> Bvh::Traversal Bvh::traverse(const Ray&
         }
       } else {
         // An interior node: go on to the child on the ray's side of the split; remember the other.
-        if (boxRay.negative[node.axis]) {
+        if (boxRay.nearCorner[node.axis]) {
           stack[stackSize++] = current + 1;
           current = node.offset;
         } else {
@@ -377,7 +388,7 @@ Real Bvh::sahCost(const BvhCosts& costs) const
   if (nodes_.empty())
     return 0;
   auto area = [](const BvhNode& n) {
-    return Bounds3{Vec3(n.lo), Vec3(n.hi)}.surfaceArea();
+    return Bounds3{Vec3(n.bounds[0]), Vec3(n.bounds[1])}.surfaceArea();
   };
   const Real rootArea = area(nodes_[0]);
   Real cost = 0;

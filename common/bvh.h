@@ -45,8 +45,7 @@ struct Bounds3 {
 /// `offset` is the index of its second child; a leaf's spheres are primitives [offset, offset + count).
 /// Bounds are float, rounded outwards from the scene's scalar, so they hold everything the exact box holds.
 struct alignas(32) BvhNode {
-  glm::vec3 lo;          ///< Box, smallest corner (rounded down).
-  glm::vec3 hi;          ///< Box, largest corner (rounded up).
+  glm::vec3 bounds[2];   ///< Box: [0] its smallest corner (rounded down), [1] its largest (rounded up).
   std::uint32_t offset;  ///< Leaf: first primitive. Interior: index of the second child.
   std::uint16_t count;   ///< Leaf: number of primitives, ≥ 1. Interior: 0.
   std::uint8_t axis;     ///< Interior: the split axis (0 x, 1 y, 2 z), for visiting the nearer child first.

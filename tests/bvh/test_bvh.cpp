@@ -331,8 +331,8 @@ TEST_CASE("the tree is well formed - every sphere in one leaf - every box holds 
     }
     for (std::uint32_t child : {i + 1, n.offset}) {
       for (int a = 0; a < 3; ++a) {
-        REQUIRE(nodes[child].lo[a] >= n.lo[a]);
-        REQUIRE(nodes[child].hi[a] <= n.hi[a]);
+        REQUIRE(nodes[child].bounds[0][a] >= n.bounds[0][a]);
+        REQUIRE(nodes[child].bounds[1][a] <= n.bounds[1][a]);
       }
       walk(child, level + 1);
     }
@@ -343,8 +343,8 @@ TEST_CASE("the tree is well formed - every sphere in one leaf - every box holds 
   // The root box holds every sphere.
   for (const Sphere& s : spheres)
     for (int a = 0; a < 3; ++a) {
-      REQUIRE(Real(nodes[0].lo[a]) <= s.center[a] - s.radius);
-      REQUIRE(Real(nodes[0].hi[a]) >= s.center[a] + s.radius);
+      REQUIRE(Real(nodes[0].bounds[0][a]) <= s.center[a] - s.radius);
+      REQUIRE(Real(nodes[0].bounds[1][a]) >= s.center[a] + s.radius);
     }
 }
 
