@@ -161,6 +161,17 @@ int main(int argc, char** argv)
                   s.bvhClosest / s.flatClosest);
       std::printf("any hit:     flat %.3f Mrays/s, BVH %.3f Mrays/s, BVH/flat %.1f\n", s.flatAny, s.bvhAny,
                   s.bvhAny / s.flatAny);
+      // The work behind those figures: boxes and spheres tested per ray.
+      BvhWork camera, shadow;
+      for (const Ray& ray : rays.camera)
+        camera = camera + tree.intersectWithWork(ray).work;
+      for (const Ray& ray : rays.shadow)
+        shadow = shadow + tree.occludedWithWork(ray).work;
+      std::printf("per camera ray: %.1f boxes, %.1f spheres; per shadow ray: %.1f boxes, %.1f spheres\n",
+                  double(camera.nodesVisited) / double(rays.camera.size()),
+                  double(camera.primitivesTested) / double(rays.camera.size()),
+                  double(shadow.nodesVisited) / double(std::max<std::size_t>(1, rays.shadow.size())),
+                  double(shadow.primitivesTested) / double(std::max<std::size_t>(1, rays.shadow.size())));
       std::printf("tree: %zu nodes (%zu bytes), depth %d, SAH cost %.2f\n", tree.accelerator.nodes().size(),
                   tree.accelerator.nodes().size() * sizeof(BvhNode), tree.accelerator.depth(),
                   double(tree.accelerator.sahCost()));
