@@ -307,6 +307,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
       result.rays += beside->rays;
       result.seconds += beside->seconds;
       result.badSamples += beside->badSamples;
+      result.interrupted = result.interrupted || beside->interrupted;
     }
     std::signal(SIGINT, previousInt);
     std::signal(SIGTERM, previousTerm);

@@ -1,6 +1,7 @@
 // The BVH against the brute-force loop: the same hit (sphere and t, bit for bit) on over a million random rays
 // over random scenes, the any-hit query in agreement, a deterministic build, and the SAH beating a midpoint split.
 #include "bvh.h"
+#include "heat_map.h"
 #include "rng.h"
 #include "scene.h"
 
@@ -448,4 +449,36 @@ TEST_CASE("the loader builds the accelerator")
   text += "] }";
   const Scene scene = parseScene(text, "many.json");
   CHECK(scene.usesAccelerator());
+}
+
+TEST_CASE("the heat map: dark for little work - brighter for more - the same beyond its maximum")
+{
+  CHECK(luminance(heatColor(0)) < Real(0.001));
+  Real previous = -1;
+  for (Real cost = 1; cost <= kHeatMapMaxCost; cost *= 2) {
+    const Real l = luminance(heatColor(cost));
+    CHECK(l > previous);
+    previous = l;
+  }
+  CHECK(heatColor(kHeatMapMaxCost * 4) == heatColor(kHeatMapMaxCost));
+  CHECK(workCost(BvhWork{10, 3}) == 10 * BvhCosts{}.traversal + 3 * BvhCosts{}.intersection);
+}
+
+TEST_CASE("the tree does a fraction of the flat loop's work on a large scene")
+{
+  Random random(17);
+  Scene scene;
+  scene.materials.push_back(Material{});
+  scene.spheres = groundScene(random, 1000);
+  Scene flat = scene;
+  scene.buildAccelerator();
+  REQUIRE(scene.usesAccelerator());
+  std::uint64_t tree = 0, loop = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Ray ray = randomRay(random, scene.spheres, 12);
+    tree += std::uint64_t(workCost(scene.intersectWithWork(ray).work));
+    loop += std::uint64_t(workCost(flat.intersectWithWork(ray).work));
+  }
+  CHECK(loop == 2000u * 1000u * std::uint64_t(BvhCosts{}.intersection));
+  CHECK(tree * 10 < loop);
 }
