@@ -55,6 +55,13 @@ inline constexpr Real kShadowRayShorten = Real(1e-4);
 /// dominated by rounding (u = up × w loses all its significant bits as |up × w| approaches the unit roundoff).
 inline constexpr Real kMinUpSine = Real(1e-6);
 
+/// Relative margin by which the BVH (bvh.h) widens each sphere's bounding box and each box's ray interval
+/// [tNear, tFar], so that the tree never culls a sphere the brute-force loop would report. It must cover the
+/// rounding of the slab test (2γ(3), pbrt 3rd ed. §3.9.2) and the error of the t intersectSphere returns for a
+/// hit on a box's face (a few γ(1) of the distance from the ray's origin to the centre); γ(32) covers both with
+/// room to spare. Widening costs an extra box visit now and then, never a different answer.
+template <class T> inline constexpr T kBoxMargin = gamma<T>(32);
+
 /// Luminance of linear Rec.709 RGB (used to weight colours, e.g. Russian roulette, light power).
 inline Real luminance(const Color& c) { return Real(0.2126) * c.r + Real(0.7152) * c.g + Real(0.0722) * c.b; }
 

@@ -55,6 +55,20 @@ Vec2 pixelOffset(PixelSampling mode, std::uint64_t s, std::optional<int> spp, Sa
   return Vec2((cx + jitter.x) / Real(n), (cy + jitter.y) / Real(n));
 }
 
+// Two images of one height side by side: `left`, then `right`.
+Image sideBySide(const Image& left, const Image& right)
+{
+  Image both(left.width + right.width, left.height);
+  for (int y = 0; y < left.height; ++y)
+    for (int c = 0; c < 3; ++c) {
+      for (int x = 0; x < left.width; ++x)
+        both.at(x, y, c) = left.at(x, y, c);
+      for (int x = 0; x < right.width; ++x)
+        both.at(left.width + x, y, c) = right.at(x, y, c);
+    }
+  return both;
+}
+
 void drawProgress(double fraction, double elapsed)
 {
   const int width = 40;
@@ -285,20 +299,33 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
     auto previousInt = std::signal(SIGINT, onInterrupt);
     auto previousTerm = std::signal(SIGTERM, onInterrupt);
     const Camera camera = scene.makeCamera(width, height);
-    const RenderResult result = render(scene, camera, settings, trace);
+    RenderResult result = render(scene, camera, settings, trace);
+    std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
+    if (chapter.besideTrace) {
+      RenderSettings same = settings;
+      same.spp = result.spp;
+      same.seconds.reset();
+      beside = render(scene, camera, same, chapter.besideTrace);
+      result.rays += beside->rays;
+      result.seconds += beside->seconds;
+      result.badSamples += beside->badSamples;
+      result.interrupted = result.interrupted || beside->interrupted;
+    }
     std::signal(SIGINT, previousInt);
     std::signal(SIGTERM, previousTerm);
 
     // Write every image, all or nothing.
     std::vector<std::pair<std::string, std::vector<unsigned char>>> files;
-    const Image mean = result.film.mean();
+    const Image mean = beside ? sideBySide(result.film.mean(), beside->film.mean()) : result.film.mean();
     for (const std::string& path : outputs)
       files.emplace_back(path, encodeImage(mean, path));
     if (!options.variancePath.empty())
-      files.emplace_back(options.variancePath, encodePfm(result.film.varianceOfMean()));
+      files.emplace_back(options.variancePath,
+                         encodePfm(beside ? sideBySide(result.film.varianceOfMean(), beside->film.varianceOfMean())
+                                          : result.film.varianceOfMean()));
     if (!options.statsPath.empty()) {
       std::ostringstream json;
-      json << "{\"chapter\": \"" << name << "\", \"width\": " << width << ", \"height\": " << height
+      json << "{\"chapter\": \"" << name << "\", \"width\": " << mean.width << ", \"height\": " << height
            << ", \"spp\": " << result.spp << ", \"seconds\": " << result.seconds << ", \"rays\": " << result.rays
            << ", \"bad_samples\": " << result.badSamples << ", \"threads\": "
            << (settings.threads > 0 ? settings.threads : omp_get_max_threads())
@@ -311,7 +338,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
     if (!options.quiet) {
       char line[256];
       const double mrays = result.seconds > 0 ? double(result.rays) / result.seconds / 1e6 : 0.0;
-      std::snprintf(line, sizeof line, "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s", name.c_str(), width,
+      std::snprintf(line, sizeof line, "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s", name.c_str(), mean.width,
                     height, result.spp, result.seconds, formatCount(result.rays).c_str(), mrays);
       std::cerr << line;
       if (result.badSamples)

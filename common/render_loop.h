@@ -51,6 +51,10 @@ struct ChapterInfo {
   PixelSampling pixelSampling = PixelSampling::Centre; ///< Where samples fall in a pixel.
   int defaultSpp = 1;         ///< Samples per pixel when neither --spp nor --time is given.
   int defaultMaxDepth = -1;   ///< --max-depth default; −1: unlimited.
+  /// Optional: a second estimator whose image the runner puts to the right of the first, rendered with the same
+  /// camera, seed and samples per pixel, so the output is twice as wide (chapter 9 shows the work each pixel cost
+  /// beside the rendered image). Empty: one image.
+  TraceFunction besideTrace = {};
 };
 
 /// How to render, resolved from the options and the chapter's defaults.

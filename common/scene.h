@@ -2,6 +2,7 @@
 /// @brief The scene: camera settings, materials, spheres and lights, its intersection queries, and its loader.
 #pragma once
 
+#include "bvh.h"
 #include "camera.h"
 #include "hit.h"
 #include "light.h"
@@ -33,6 +34,24 @@ struct CameraSpec {
 /// The film keeps about 56 bytes a pixel, so this bounds its memory at about 3.5 GiB.
 inline constexpr std::int64_t kMaxPixels = std::int64_t(1) << 26;
 
+/// Scenes with at most this many spheres are searched one by one; larger ones through a BVH. Below the crossover
+/// a flat loop beats a tree (no boxes to test, no stack). Measured with `tools/bvh_bench crossover` on the
+/// random-spheres scene, one thread: the tree overtakes the loop at about 15 spheres for camera rays and 8 for
+/// shadow rays; for chapter 4's mix (1.3 shadow rays per camera ray) at 10. So the Cornell box (9) stays a loop.
+inline constexpr std::size_t kFlatListMaxSpheres = 9;
+
+/// Scene::intersectWithWork's answer: the hit, and the work the query did.
+struct TracedHit {
+  std::optional<Hit> hit; ///< As Scene::intersect.
+  BvhWork work;           ///< Boxes and spheres tested (no boxes when the scene is searched one by one).
+};
+
+/// Scene::occludedWithWork's answer: the occlusion, and the work the query did.
+struct TracedOcclusion {
+  bool occluded = false; ///< As Scene::occluded.
+  BvhWork work;          ///< Boxes and spheres tested until the answer was known.
+};
+
 /// A loaded, validated scene. Immutable while rendering, so it is shared by all threads without locks.
 struct Scene {
   std::string fileName;            ///< Where it came from (for messages).
@@ -44,12 +63,32 @@ struct Scene {
   std::vector<PointLight> lights;  ///< Point lights (may be empty).
   std::vector<std::string> warnings; ///< Non-fatal remarks from the loader (an unused material, say).
 
+  /// The BVH over `spheres`, or an empty one. Filled by buildAccelerator(), which the loader calls.
+  /// Contract: intersect and occluded use it only while it covers exactly spheres.size() spheres (see
+  /// usesAccelerator), and otherwise search the spheres one by one, with the same answers. So a scene filled by
+  /// hand works without it; but whoever changes `spheres` after building it must call buildAccelerator() again
+  /// (a tree over moved spheres of the same count would answer for the old ones).
+  Bvh accelerator;
+
+  /// Builds `accelerator` over `spheres` when there are more than kFlatListMaxSpheres, and empties it otherwise.
+  /// Not thread-safe: call it before rendering (no query ever builds anything, so queries are thread-safe).
+  void buildAccelerator();
+
+  /// True when intersect and occluded go through `accelerator`, false when they loop over the spheres.
+  bool usesAccelerator() const;
+
   /// The nearest hit of the ray inside [ray.tmin, ray.tmax), or nothing. Counts one ray (see rayCount()).
   std::optional<Hit> intersect(const Ray& ray) const;
 
   /// True when anything blocks the ray inside [ray.tmin, ray.tmax): the shadow-ray query, which may stop at
   /// the first blocker it finds. Counts one ray.
   bool occluded(const Ray& ray) const;
+
+  /// intersect, also returning the work it did (for chapter 9's heat map). Counts one ray.
+  TracedHit intersectWithWork(const Ray& ray) const;
+
+  /// occluded, also returning the work it did. Counts one ray.
+  TracedOcclusion occludedWithWork(const Ray& ray) const;
 
   /// The camera for an image of width × height pixels (the scene's own size when these are 0).
   Camera makeCamera(int width = 0, int height = 0) const;

@@ -499,6 +499,7 @@ Scene parseScene(std::string_view text, const std::string& fileName)
     if (!used.count(int(i)))
       scene.warnings.push_back(fileName + ": /materials/" + materialNames[i] + ": material '" + materialNames[i] +
                                "' is defined but no sphere uses it");
+  scene.buildAccelerator();
   return scene;
 }
 

@@ -1,0 +1,169 @@
+/// @file bvh.h
+/// @brief A bounding volume hierarchy over spheres: built with the binned surface area heuristic, flattened into
+/// a compact array, traversed front to back; closest-hit and any-hit (shadow ray) queries.
+///
+/// The idea. Testing a ray against every sphere costs N sphere tests. Group the spheres into boxes, the boxes
+/// into bigger boxes, up to one box around everything: a ray that misses a box skips everything inside it, so a
+/// ray typically pays for a few dozen box tests and a handful of sphere tests, about log N work instead of N.
+///
+/// The contract that makes it safe to use everywhere: a query returns exactly what the brute-force loop over the
+/// same spheres returns (the same sphere, the same t to the last bit, ties between spheres at the same t going
+/// to the lowest index as the loop's strict "nearer" does). Boxes are widened by kBoxMargin so that rounding in
+/// the box test can never cull a sphere the loop would hit. tests/bvh checks this on millions of rays.
+#pragma once
+
+#include "math.h"
+#include "ray.h"
+#include "sphere.h"
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace raylife {
+
+/// An axis-aligned box [lo, hi] in world space (empty when any lo > hi).
+struct Bounds3 {
+  Vec3 lo{kInfinity};  ///< Smallest corner.
+  Vec3 hi{-kInfinity}; ///< Largest corner.
+
+  /// The smallest box holding this box and `b`.
+  Bounds3 merged(const Bounds3& b) const { return Bounds3{glm::min(lo, b.lo), glm::max(hi, b.hi)}; }
+  /// The smallest box holding this box and the point `p`.
+  Bounds3 merged(const Vec3& p) const { return Bounds3{glm::min(lo, p), glm::max(hi, p)}; }
+  /// Surface area 2(dx·dy + dy·dz + dz·dx), in scene units²; 0 for an empty box or a point.
+  Real surfaceArea() const
+  {
+    const Vec3 d = glm::max(hi - lo, Vec3(0));
+    return 2 * (d.x * d.y + d.y * d.z + d.z * d.x);
+  }
+};
+
+/// One node of the flattened tree: 32 bytes, so two share a 64-byte cache line.
+///
+/// The nodes are stored depth first: an interior node's first child is the next node in the array and
+/// `offset` is the index of its second child; a leaf's spheres are primitives [offset, offset + count).
+/// Bounds are float, rounded outwards from the scene's scalar, so they hold everything the exact box holds.
+struct alignas(32) BvhNode {
+  glm::vec3 bounds[2];   ///< Box: [0] its smallest corner (rounded down), [1] its largest (rounded up).
+  std::uint32_t offset;  ///< Leaf: first primitive. Interior: index of the second child.
+  std::uint16_t count;   ///< Leaf: number of primitives, ≥ 1. Interior: 0.
+  std::uint8_t axis;     ///< Interior: the split axis (0 x, 1 y, 2 z), for visiting the nearer child first.
+  std::uint8_t pad = 0;  ///< Unused; keeps the node 32 bytes and its bytes defined (builds compare equal).
+};
+static_assert(sizeof(BvhNode) == 32, "a BvhNode is meant to be 32 bytes");
+
+/// How the builder chooses where to split a node's spheres.
+enum class BvhSplit {
+  Sah,      ///< The surface area heuristic over binned centroids (the good split; the default).
+  Midpoint, ///< Halve the centroids' box on its longest axis, ignoring cost (the bad split, for comparison).
+};
+
+/// The builder's settings.
+struct BvhBuildOptions {
+  BvhSplit split = BvhSplit::Sah; ///< Splitting rule.
+  int bins = 12;                  ///< SAH bins per axis over the centroids' box, in [2, 64].
+  int maxLeafSize = 4;            ///< A node with more spheres than this is always split, in [1, 255].
+};
+
+/// The relative costs the SAH weighs (only their ratio matters): one box test, and one ray–sphere test.
+/// On the random-spheres scene the speed barely depends on the ratio (tools/bvh_bench speed: the same within the
+/// noise for C_isect / C_trav from 0.5 to 4); 2 favours small leaves, which suits spheres of similar size.
+struct BvhCosts {
+  Real traversal = 1;    ///< C_trav: visiting a node (a box test).
+  Real intersection = 2; ///< C_isect: testing one sphere.
+};
+
+/// The work one query did: the numbers chapter 9 paints as a heat map.
+struct BvhWork {
+  std::uint32_t nodesVisited = 0;     ///< Boxes tested.
+  std::uint32_t primitivesTested = 0; ///< Spheres tested.
+
+  /// The sum of two queries' work.
+  BvhWork operator+(const BvhWork& o) const
+  {
+    return BvhWork{nodesVisited + o.nodesVisited, primitivesTested + o.primitivesTested};
+  }
+};
+
+/// The nearest sphere a ray hits: its index in the vector the tree was built from, and the distance.
+struct BvhHit {
+  Real t = 0;        ///< The ray parameter of the hit, in [ray.tmin, ray.tmax).
+  int primitive = -1; ///< Index into the spheres given to the Bvh constructor.
+};
+
+/// A closest-hit query's answer with the work it took.
+struct BvhTracedHit {
+  std::optional<BvhHit> hit; ///< As Bvh::intersect.
+  BvhWork work;              ///< Nodes visited and spheres tested.
+};
+
+/// An any-hit query's answer with the work it took.
+struct BvhTracedOcclusion {
+  bool occluded = false; ///< As Bvh::occluded.
+  BvhWork work;          ///< Nodes visited and spheres tested until the answer was known.
+};
+
+/// A bounding volume hierarchy over a fixed set of spheres. Immutable after construction, so any number of
+/// threads may query it at once.
+class Bvh {
+public:
+  /// An empty tree: every query misses.
+  Bvh() = default;
+
+  /// Builds the tree over `spheres` (each with a finite centre and radius > 0). The tree keeps its own copy of
+  /// the spheres' geometry; it does not follow later changes to `spheres`. The build is deterministic: the
+  /// same spheres and options give the same nodes, byte for byte.
+  explicit Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options = {});
+
+  /// The nearest sphere hit inside [ray.tmin, ray.tmax), exactly as the brute-force loop finds it: for every
+  /// sphere its first root in the interval (intersectSphere), and of those the smallest t, the lowest index on
+  /// a tie. Nothing when no sphere is hit.
+  std::optional<BvhHit> intersect(const Ray& ray) const;
+
+  /// True when any sphere is hit inside [ray.tmin, ray.tmax): the shadow-ray query. Stops at the first sphere
+  /// found, so it is cheaper than intersect; it is true exactly when intersect finds a hit.
+  bool occluded(const Ray& ray) const;
+
+  /// intersect, also counting the work (for heat maps; the plain query pays nothing for the counting).
+  BvhTracedHit intersectWithWork(const Ray& ray) const;
+  /// occluded, also counting the work.
+  BvhTracedOcclusion occludedWithWork(const Ray& ray) const;
+
+  /// Spheres the tree was built over (0 for an empty tree).
+  std::size_t primitiveCount() const { return primitives_.size(); }
+  /// The flattened nodes, root first (empty for an empty tree).
+  const std::vector<BvhNode>& nodes() const { return nodes_; }
+  /// Deepest level of the tree (the root is level 1; 0 for an empty tree). Always below kMaxDepth.
+  int depth() const { return depth_; }
+
+  /// The expected cost of a ray by the surface area heuristic, summed over the whole tree:
+  /// Σ over interior nodes of (A_node / A_root)·C_trav + Σ over leaves of (A_leaf / A_root)·N_leaf·C_isect.
+  /// Lower is better; compares trees built over the same spheres.
+  Real sahCost(const BvhCosts& costs = {}) const;
+
+  /// Deepest tree the builder makes: the traversal's stack holds this many nodes.
+  static constexpr int kMaxDepth = 64;
+
+private:
+  /// A sphere as the tree stores it: geometry in traversal order, and its index in the caller's vector.
+  struct Primitive {
+    Vec3 center;
+    Real radius;
+    int index;
+  };
+
+  /// What one traversal found: the nearest hit (closest-hit) or any hit (any-hit), and the work if counted.
+  struct Traversal {
+    Real t;
+    int primitive; // −1: nothing hit
+    BvhWork work;  // zero unless counted
+  };
+  template <bool kAnyHit, bool kCountWork> Traversal traverse(const Ray& ray) const;
+
+  std::vector<BvhNode> nodes_;
+  std::vector<Primitive> primitives_;
+  int depth_ = 0;
+};
+
+} // namespace raylife

@@ -1,0 +1,484 @@
+// The BVH against the brute-force loop: the same hit (sphere and t, bit for bit) on over a million random rays
+// over random scenes, the any-hit query in agreement, a deterministic build, and the SAH beating a midpoint split.
+#include "bvh.h"
+#include "heat_map.h"
+#include "rng.h"
+#include "scene.h"
+
+#include <catch2/catch.hpp>
+
+#include <cstring>
+#include <functional>
+#include <sstream>
+
+using namespace raylife;
+
+namespace {
+
+// ---- Random numbers for scenes and rays (raylife's own generator, so every platform draws the same) ----------
+class Random {
+public:
+  explicit Random(std::uint64_t seed) : rng_(seed, 0x853c49e6748fea9bULL) {}
+  Real uniform() { return Real(rng_.nextUint()) * Real(0x1p-32); }                 // [0, 1)
+  Real uniform(Real lo, Real hi) { return lo + (hi - lo) * uniform(); }            // [lo, hi)
+  std::size_t index(std::size_t n) { return std::size_t(rng_.nextUint()) % n; }    // [0, n)
+  Vec3 inBox(Real lo, Real hi) { return Vec3(uniform(lo, hi), uniform(lo, hi), uniform(lo, hi)); }
+  Vec3 direction() // uniform on the unit sphere
+  {
+    const Real z = uniform(-1, 1), phi = 2 * kPi * uniform();
+    const Real s = std::sqrt(std::max(Real(0), 1 - z * z));
+    return Vec3(s * std::cos(phi), s * std::sin(phi), z);
+  }
+
+private:
+  Pcg32 rng_;
+};
+
+// ---- The reference: the brute-force loop, written out here so it cannot share a bug with the scene's ----------
+struct Reference {
+  Real t;
+  int sphere;
+};
+
+std::optional<Reference> bruteForce(const std::vector<Sphere>& spheres, const Ray& ray)
+{
+  Real tNearest = ray.tmax;
+  int nearest = -1;
+  for (std::size_t i = 0; i < spheres.size(); ++i)
+    if (auto t = intersectSphere(ray.origin, ray.direction, spheres[i].center, spheres[i].radius, ray.tmin, tNearest)) {
+      tNearest = *t;
+      nearest = int(i);
+    }
+  if (nearest < 0)
+    return std::nullopt;
+  return Reference{tNearest, nearest};
+}
+
+// ---- Scenes ---------------------------------------------------------------------------------------------------
+std::vector<Sphere> uniformScene(Random& random, int n)
+{
+  std::vector<Sphere> s;
+  for (int i = 0; i < n; ++i)
+    s.push_back(Sphere{random.inBox(-10, 10), random.uniform(Real(0.05), Real(1.5)), 0});
+  return s;
+}
+
+// Dense clusters of spheres of sizes over three orders of magnitude, far apart.
+std::vector<Sphere> clusteredScene(Random& random, int n)
+{
+  std::vector<Sphere> s;
+  std::vector<Vec3> centres;
+  for (int c = 0; c < 6; ++c)
+    centres.push_back(random.inBox(-50, 50));
+  for (int i = 0; i < n; ++i) {
+    const Vec3 c = centres[random.index(centres.size())] + random.inBox(-2, 2);
+    s.push_back(Sphere{c, std::pow(Real(10), random.uniform(-3, 0)), 0});
+  }
+  return s;
+}
+
+// Exact duplicates and concentric spheres: hits at identical t, which must go to the lowest index.
+std::vector<Sphere> duplicateScene(Random& random, int n)
+{
+  std::vector<Sphere> s = uniformScene(random, n / 2);
+  const std::size_t originals = s.size();
+  for (std::size_t i = 0; i < originals; ++i) {
+    const Sphere& o = s[random.index(originals)];
+    if (i % 3 == 0)
+      s.push_back(Sphere{o.center, o.radius * Real(0.5), 0}); // concentric
+    else
+      s.push_back(o); // the same sphere again
+  }
+  // A few duplicates placed *before* their originals too.
+  for (int i = 0; i < 10; ++i)
+    s.insert(s.begin(), s[random.index(s.size())]);
+  return s;
+}
+
+// Equal spheres on a lattice, touching: axis-aligned rays through their centres meet them on their boxes' faces,
+// and leave one sphere where they enter the next.
+std::vector<Sphere> latticeScene(int side)
+{
+  std::vector<Sphere> s;
+  for (int x = 0; x < side; ++x)
+    for (int y = 0; y < side; ++y)
+      for (int z = 0; z < side; ++z)
+        s.push_back(Sphere{Vec3(x, y, z), Real(0.5), 0});
+  return s;
+}
+
+// The tutorial's ground: one huge sphere under many small ones.
+std::vector<Sphere> groundScene(Random& random, int n)
+{
+  std::vector<Sphere> s{Sphere{Vec3(0, -1000, 0), 1000, 0}};
+  for (int i = 1; i < n; ++i) {
+    const Real r = random.uniform(Real(0.1), Real(0.4));
+    s.push_back(Sphere{Vec3(random.uniform(-11, 11), r, random.uniform(-11, 11)), r, 0});
+  }
+  return s;
+}
+
+// ---- Rays of every awkward kind -------------------------------------------------------------------------------
+Ray randomRay(Random& random, const std::vector<Sphere>& spheres, Real extent)
+{
+  const Sphere& s = spheres[random.index(spheres.size())];
+  Ray ray;
+  ray.direction = random.direction();
+  switch (random.index(8)) {
+  case 0: // anywhere around the scene, any direction
+    ray.origin = random.inBox(-extent, extent);
+    break;
+  case 1: // from inside a sphere
+    ray.origin = s.center + random.direction() * (s.radius * random.uniform(0, Real(0.999)));
+    break;
+  case 2: { // grazing: tangent to a sphere, or within a hair of it
+    Vec3 side = glm::cross(ray.direction, random.direction());
+    side = glm::normalize(side);
+    const Real offset = s.radius * (1 + random.uniform(-1, 1) * Real(1e-9));
+    ray.origin = s.center + side * offset - ray.direction * random.uniform(0, 3 * extent);
+    break;
+  }
+  case 3: { // axis-aligned, through a sphere's centre line or near it
+    const int axis = int(random.index(3));
+    ray.direction = Vec3(0);
+    ray.direction[axis] = random.index(2) ? 1 : -1;
+    ray.origin = s.center + (random.index(2) ? Vec3(0) : random.inBox(-s.radius, s.radius));
+    ray.origin[axis] = random.uniform(-extent, extent);
+    break;
+  }
+  case 4: { // a direction with one zero component, from anywhere
+    const int axis = int(random.index(3));
+    ray.direction[axis] = 0;
+    ray.direction = glm::normalize(ray.direction);
+    ray.origin = random.inBox(-extent, extent);
+    ray.origin[axis] = s.center[axis] + (random.index(2) ? 0 : s.radius); // in a centre's plane or a face's
+    break;
+  }
+  case 5: // from a point on a sphere's surface (an unshifted secondary ray)
+    ray.origin = s.center + random.direction() * s.radius;
+    break;
+  case 6: // from far away, aimed at a sphere
+    ray.origin = random.direction() * (extent * 1000);
+    ray.direction = glm::normalize(s.center + random.inBox(-s.radius, s.radius) - ray.origin);
+    break;
+  default: // aimed at a sphere from inside the scene
+    ray.origin = random.inBox(-extent, extent);
+    ray.direction = glm::normalize(s.center + random.inBox(-s.radius, s.radius) - ray.origin);
+    break;
+  }
+  if (!isFinite(ray.direction) || glm::length(ray.direction) == 0)
+    ray.direction = Vec3(0, 0, 1);
+  if (random.index(4) == 0) { // a bounded interval, as shadow rays and later bounces have
+    ray.tmin = random.uniform(0, extent);
+    ray.tmax = ray.tmin + random.uniform(0, 2 * extent);
+  }
+  return ray;
+}
+
+std::string describe(const Ray& ray)
+{
+  std::ostringstream out;
+  out.precision(17);
+  out << "origin (" << ray.origin.x << ", " << ray.origin.y << ", " << ray.origin.z << ") direction ("
+      << ray.direction.x << ", " << ray.direction.y << ", " << ray.direction.z << ") interval [" << ray.tmin << ", "
+      << ray.tmax << ")";
+  return out.str();
+}
+
+// Traces `rays` random rays through the tree and the loop; returns how many disagreed, and describes the first.
+struct Disagreements {
+  std::size_t closest = 0;   // different closest hit (presence, sphere or t)
+  std::size_t anyHit = 0;    // occluded() disagrees with the closest hit's presence
+  std::size_t withWork = 0;  // the counting queries disagree with the plain ones
+  std::size_t hits = 0;      // rays that hit something (so the test is not all misses)
+  std::string first;
+};
+
+Disagreements compare(const std::vector<Sphere>& spheres, std::size_t rays, std::uint64_t seed, Real extent)
+{
+  const Bvh bvh(spheres);
+  Random random(seed);
+  Disagreements d;
+  for (std::size_t i = 0; i < rays; ++i) {
+    const Ray ray = randomRay(random, spheres, extent);
+    const std::optional<Reference> expected = bruteForce(spheres, ray);
+    const std::optional<BvhHit> got = bvh.intersect(ray);
+    const bool same = expected.has_value() == got.has_value() &&
+                      (!expected || (expected->sphere == got->primitive &&
+                                     std::memcmp(&expected->t, &got->t, sizeof(Real)) == 0));
+    if (!same) {
+      if (d.first.empty())
+        d.first = describe(ray) + ": brute force " +
+                  (expected ? "sphere " + std::to_string(expected->sphere) + " t " + std::to_string(expected->t)
+                            : std::string("miss")) +
+                  ", BVH " +
+                  (got ? "sphere " + std::to_string(got->primitive) + " t " + std::to_string(got->t)
+                       : std::string("miss"));
+      ++d.closest;
+    }
+    d.hits += expected.has_value();
+    if (bvh.occluded(ray) != expected.has_value())
+      ++d.anyHit;
+    const BvhTracedHit counted = bvh.intersectWithWork(ray);
+    if (counted.hit.has_value() != got.has_value() || (got && counted.hit->primitive != got->primitive) ||
+        bvh.occludedWithWork(ray).occluded != expected.has_value())
+      ++d.withWork;
+  }
+  return d;
+}
+
+void checkAgreement(const std::vector<Sphere>& spheres, std::size_t rays, std::uint64_t seed, Real extent)
+{
+  const Disagreements d = compare(spheres, rays, seed, extent);
+  INFO("first disagreement: " << d.first);
+  CHECK(d.closest == 0);
+  CHECK(d.anyHit == 0);
+  CHECK(d.withWork == 0);
+  CHECK(d.hits > rays / 10); // the rays do meet the spheres
+  CHECK(d.hits < rays);      // and some miss
+}
+
+} // namespace
+
+TEST_CASE("the BVH finds exactly the brute-force hit for a million random rays")
+{
+  // Over a million rays in all: every kind of ray (inside, grazing, axis-aligned, zero components, from
+  // surfaces, from afar, bounded intervals) over every kind of scene.
+  Random random(2024);
+  SECTION("uniform spheres") { checkAgreement(uniformScene(random, 300), 250000, 1, 12); }
+  SECTION("clusters of spheres of very different sizes") { checkAgreement(clusteredScene(random, 600), 200000, 2, 55); }
+  SECTION("duplicate and concentric spheres") { checkAgreement(duplicateScene(random, 300), 200000, 3, 12); }
+  SECTION("a lattice of touching spheres") { checkAgreement(latticeScene(7), 150000, 4, 8); }
+  SECTION("a huge ground sphere under small ones") { checkAgreement(groundScene(random, 200), 150000, 5, 12); }
+  SECTION("tiny scenes")
+  {
+    for (int n : {1, 2, 3, 5, 9, 17})
+      checkAgreement(uniformScene(random, n), 20000, std::uint64_t(10 + n), 12);
+  }
+}
+
+TEST_CASE("ties at the same t go to the lowest index as in the brute-force loop")
+{
+  // Three copies of one sphere, among others: every ray that hits it hits all three at the same t.
+  Random random(7);
+  std::vector<Sphere> spheres = uniformScene(random, 40);
+  const Sphere twin{Vec3(1, 2, 3), 2, 0};
+  spheres.insert(spheres.begin() + 5, twin);
+  spheres.push_back(twin);
+  spheres.insert(spheres.begin() + 20, twin);
+  const Bvh bvh(spheres);
+  for (int i = 0; i < 2000; ++i) {
+    const Vec3 from = twin.center + random.direction() * Real(30);
+    const Ray ray{from, glm::normalize(twin.center + random.inBox(-1, 1) - from)};
+    const auto expected = bruteForce(spheres, ray);
+    const auto got = bvh.intersect(ray);
+    REQUIRE(expected);
+    REQUIRE(got);
+    REQUIRE(got->primitive == expected->sphere);
+    REQUIRE(got->t == expected->t);
+  }
+}
+
+TEST_CASE("the any-hit query agrees with the closest hit about occlusion inside the interval")
+{
+  // Shadow-ray-like rays: bounded by the distance to a point, from just off a surface.
+  Random random(11);
+  const std::vector<Sphere> spheres = groundScene(random, 300);
+  const Bvh bvh(spheres);
+  std::size_t blocked = 0;
+  const std::size_t n = 100000;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3 from = random.inBox(-12, 12) * Vec3(1, 0.2, 1) + Vec3(0, 0.5, 0);
+    const Vec3 to = random.inBox(-12, 12) + Vec3(0, 12, 0);
+    const Real distance = glm::length(to - from);
+    const Ray ray{from, (to - from) / distance, 0, distance};
+    const bool occluded = bvh.occluded(ray);
+    REQUIRE(occluded == bruteForce(spheres, ray).has_value());
+    blocked += occluded;
+  }
+  CHECK(blocked > n / 20);
+  CHECK(blocked < n - n / 20);
+}
+
+TEST_CASE("the build is deterministic")
+{
+  Random random(3);
+  const std::vector<Sphere> spheres = clusteredScene(random, 5000);
+  const Bvh a(spheres), b(spheres);
+  REQUIRE(a.nodes().size() == b.nodes().size());
+  CHECK(std::memcmp(a.nodes().data(), b.nodes().data(), a.nodes().size() * sizeof(BvhNode)) == 0);
+  CHECK(a.depth() == b.depth());
+  CHECK(a.sahCost() == b.sahCost());
+}
+
+TEST_CASE("the tree is well formed - every sphere in one leaf - every box holds its spheres")
+{
+  Random random(5);
+  const std::vector<Sphere> spheres = groundScene(random, 2000);
+  const Bvh bvh(spheres);
+  const std::vector<BvhNode>& nodes = bvh.nodes();
+  REQUIRE(!nodes.empty());
+  // Walk the tree from the root, checking each child lies inside its parent and each leaf's spheres are covered.
+  std::vector<int> seen(spheres.size(), 0);
+  std::function<void(std::uint32_t, int)> walk = [&](std::uint32_t i, int level) {
+    REQUIRE(i < nodes.size());
+    REQUIRE(level <= Bvh::kMaxDepth);
+    const BvhNode& n = nodes[i];
+    if (n.count > 0) {
+      REQUIRE(std::size_t(n.offset) + n.count <= spheres.size());
+      for (std::uint32_t k = n.offset; k < n.offset + n.count; ++k)
+        seen[k] += 1;
+      return;
+    }
+    for (std::uint32_t child : {i + 1, n.offset}) {
+      for (int a = 0; a < 3; ++a) {
+        REQUIRE(nodes[child].bounds[0][a] >= n.bounds[0][a]);
+        REQUIRE(nodes[child].bounds[1][a] <= n.bounds[1][a]);
+      }
+      walk(child, level + 1);
+    }
+  };
+  walk(0, 1);
+  for (int s : seen)
+    REQUIRE(s == 1);
+  // The root box holds every sphere.
+  for (const Sphere& s : spheres)
+    for (int a = 0; a < 3; ++a) {
+      REQUIRE(Real(nodes[0].bounds[0][a]) <= s.center[a] - s.radius);
+      REQUIRE(Real(nodes[0].bounds[1][a]) >= s.center[a] + s.radius);
+    }
+}
+
+TEST_CASE("the SAH builds a cheaper tree than a midpoint split on a clustered scene - and it does less work")
+{
+  Random random(9);
+  const std::vector<Sphere> spheres = clusteredScene(random, 3000);
+  const Bvh sah(spheres, BvhBuildOptions{BvhSplit::Sah});
+  const Bvh midpoint(spheres, BvhBuildOptions{BvhSplit::Midpoint});
+  CHECK(sah.sahCost() < midpoint.sahCost());
+  // The cost model predicts the work rays really do: count it over the same random rays.
+  std::uint64_t workSah = 0, workMidpoint = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Ray ray = randomRay(random, spheres, 55);
+    const BvhWork a = sah.intersectWithWork(ray).work, b = midpoint.intersectWithWork(ray).work;
+    workSah += a.nodesVisited + 2 * a.primitivesTested;
+    workMidpoint += b.nodesVisited + 2 * b.primitivesTested;
+  }
+  CHECK(workSah < workMidpoint);
+}
+
+TEST_CASE("degenerate inputs: identical centres and exponentially spaced spheres keep the depth bounded")
+{
+  std::vector<Sphere> same(3000, Sphere{Vec3(1, 1, 1), 1, 0});
+  const Bvh a(same);
+  CHECK(a.depth() < Bvh::kMaxDepth);
+  const auto hit = a.intersect(Ray{Vec3(1, 1, -10), Vec3(0, 0, 1)});
+  REQUIRE(hit);
+  CHECK(hit->primitive == 0);
+  CHECK(hit->t == 10);
+
+  std::vector<Sphere> spread;
+  for (int i = 0; i < 200; ++i)
+    spread.push_back(Sphere{Vec3(std::ldexp(Real(1), i % 120), 0, 0), Real(0.25), 0});
+  const Bvh b(spread);
+  CHECK(b.depth() < Bvh::kMaxDepth);
+  checkAgreement(spread, 20000, 77, 100);
+}
+
+TEST_CASE("an empty tree misses everything")
+{
+  const Bvh empty;
+  CHECK_FALSE(empty.intersect(Ray{}));
+  CHECK_FALSE(empty.occluded(Ray{}));
+  CHECK(empty.primitiveCount() == 0);
+}
+
+TEST_CASE("the scene uses the BVH above the threshold - the loop below it or when stale - with identical hits")
+{
+  Random random(13);
+  Scene flat, tree;
+  flat.materials.push_back(Material{});
+  flat.spheres = groundScene(random, 400);
+  for (std::size_t i = 0; i < flat.spheres.size(); ++i)
+    flat.spheres[i].material = 0;
+  tree = flat;
+  tree.buildAccelerator();
+  CHECK_FALSE(flat.usesAccelerator());
+  REQUIRE(tree.usesAccelerator());
+  for (int i = 0; i < 50000; ++i) {
+    const Ray ray = randomRay(random, flat.spheres, 12);
+    const std::optional<Hit> a = flat.intersect(ray), b = tree.intersect(ray);
+    REQUIRE(a.has_value() == b.has_value());
+    if (a) {
+      REQUIRE(a->t == b->t);
+      REQUIRE(a->sphere == b->sphere);
+      REQUIRE(a->point == b->point);
+      REQUIRE(a->normal == b->normal);
+      REQUIRE(a->pointError == b->pointError);
+    }
+    REQUIRE(flat.occluded(ray) == tree.occluded(ray));
+    const TracedHit counted = tree.intersectWithWork(ray);
+    REQUIRE(counted.hit.has_value() == a.has_value());
+    REQUIRE(tree.occludedWithWork(ray).occluded == flat.occluded(ray));
+    REQUIRE(flat.intersectWithWork(ray).work.primitivesTested == flat.spheres.size());
+  }
+
+  // Stale: a sphere added after the build, in front of the camera; the scene must see it (through the loop).
+  tree.spheres.push_back(Sphere{Vec3(0, 50, 0), 1, 0});
+  CHECK_FALSE(tree.usesAccelerator());
+  const auto hit = tree.intersect(Ray{Vec3(0, 60, 0), Vec3(0, -1, 0)});
+  REQUIRE(hit);
+  CHECK(hit->sphere == int(tree.spheres.size()) - 1);
+
+  // The threshold: at most kFlatListMaxSpheres spheres are searched one by one.
+  Scene small;
+  small.spheres = std::vector<Sphere>(kFlatListMaxSpheres, Sphere{});
+  small.buildAccelerator();
+  CHECK_FALSE(small.usesAccelerator());
+  small.spheres.push_back(Sphere{});
+  small.buildAccelerator();
+  CHECK(small.usesAccelerator());
+}
+
+TEST_CASE("the loader builds the accelerator")
+{
+  std::string text = R"({ "camera": { "eye": [0, 0, 5], "focal": [0, 0, 0] },
+                          "materials": { "m": { "type": "diffuse" } }, "spheres": [)";
+  for (std::size_t i = 0; i <= kFlatListMaxSpheres; ++i)
+    text += (i ? ", " : "") + std::string(R"({ "center": [)") + std::to_string(i) + R"(, 0, 0], "radius": 0.25, "material": "m" })";
+  text += "] }";
+  const Scene scene = parseScene(text, "many.json");
+  CHECK(scene.usesAccelerator());
+}
+
+TEST_CASE("the heat map: dark for little work - brighter for more - the same beyond its maximum")
+{
+  CHECK(luminance(heatColor(0)) < Real(0.001));
+  Real previous = -1;
+  for (Real cost = 1; cost <= kHeatMapMaxCost; cost *= 2) {
+    const Real l = luminance(heatColor(cost));
+    CHECK(l > previous);
+    previous = l;
+  }
+  CHECK(heatColor(kHeatMapMaxCost * 4) == heatColor(kHeatMapMaxCost));
+  CHECK(workCost(BvhWork{10, 3}) == 10 * BvhCosts{}.traversal + 3 * BvhCosts{}.intersection);
+}
+
+TEST_CASE("the tree does a fraction of the flat loop's work on a large scene")
+{
+  Random random(17);
+  Scene scene;
+  scene.materials.push_back(Material{});
+  scene.spheres = groundScene(random, 1000);
+  Scene flat = scene;
+  scene.buildAccelerator();
+  REQUIRE(scene.usesAccelerator());
+  std::uint64_t tree = 0, loop = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Ray ray = randomRay(random, scene.spheres, 12);
+    tree += std::uint64_t(workCost(scene.intersectWithWork(ray).work));
+    loop += std::uint64_t(workCost(flat.intersectWithWork(ray).work));
+  }
+  CHECK(loop == 2000u * 1000u * std::uint64_t(BvhCosts{}.intersection));
+  CHECK(tree * 10 < loop);
+}

@@ -1,0 +1,234 @@
+// bvh_bench: measures the BVH against the flat list of spheres, on one thread, and draws heat maps of the work.
+//
+//   bvh_bench speed [SCENE.json] [--repeat R]
+//       Mrays/s of the closest-hit query (camera rays) and of the any-hit query (shadow rays towards the point
+//       lights), through the flat loop and through the BVH, side by side, best of R interleaved runs.
+//   bvh_bench crossover [SCENE.json] [--repeat R]
+//       The same for the N spheres nearest the focal point (the ground sphere always among them), N = 1 … 64:
+//       where the tree starts to pay (Scene's kFlatListMaxSpheres).
+//   bvh_bench heatmap [SCENE.json] --split sah|midpoint -o FILE.png|FILE.pfm [--width W] [--height H]
+//       The work per pixel (camera ray and shadow rays, as in chapter 9's right image) with a tree built by the
+//       given split; prints the tree's SAH cost and the mean work per pixel.
+//
+// The default scene is scenes/random_spheres.json. Times are the thread's CPU time (best of R runs), which a shared
+// machine disturbs less than wall-clock time; still, compare ratios measured in one run.
+#include "heat_map.h"
+#include "image_io.h"
+#include "render_loop.h"
+#include "scene.h"
+#include "shading.h"
+
+#include <algorithm>
+#include <ctime>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <string>
+#include <vector>
+
+using namespace raylife;
+
+namespace {
+
+// CPU time of this thread, in seconds: on a shared machine it leaves out the time other processes had the core,
+// which wall-clock time does not.
+double threadSeconds()
+{
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+struct Rays {
+  std::vector<Ray> camera; // one per pixel, through its centre
+  std::vector<Ray> shadow; // from each camera hit towards each light in front of the surface
+};
+
+Rays makeRays(const Scene& scene, int width, int height)
+{
+  Rays rays;
+  const Camera camera = scene.makeCamera(width, height);
+  for (int y = 0; y < camera.height(); ++y)
+    for (int x = 0; x < camera.width(); ++x) {
+      const Ray ray = camera.ray(Vec2(Real(x) + Real(0.5), Real(y) + Real(0.5)));
+      rays.camera.push_back(ray);
+      if (const std::optional<Hit> hit = scene.intersect(ray)) {
+        const Vec3 N = facingNormal(*hit, ray.direction);
+        for (const PointLight& light : scene.lights)
+          if (auto in = light.arrivalAt(hit->point); in && glm::dot(in->direction, N) > 0)
+            rays.shadow.push_back(spawnRayTo(*hit, light.position));
+      }
+    }
+  return rays;
+}
+
+// Seconds for one pass of the closest-hit query over `rays` (the hit count is returned so nothing is optimised out).
+std::pair<double, std::size_t> timeClosest(const Scene& scene, const std::vector<Ray>& rays)
+{
+  const double start = threadSeconds();
+  std::size_t hits = 0;
+  for (const Ray& ray : rays)
+    hits += scene.intersect(ray).has_value();
+  return {threadSeconds() - start, hits};
+}
+
+std::pair<double, std::size_t> timeAny(const Scene& scene, const std::vector<Ray>& rays)
+{
+  const double start = threadSeconds();
+  std::size_t blocked = 0;
+  for (const Ray& ray : rays)
+    blocked += scene.occluded(ray);
+  return {threadSeconds() - start, blocked};
+}
+
+struct Speeds {
+  double flatClosest, bvhClosest, flatAny, bvhAny; // Mrays/s
+};
+
+// Best of `repeat` interleaved runs of each query through each structure (the best run is the least disturbed).
+Speeds measure(const Scene& flat, const Scene& tree, const Rays& rays, int repeat)
+{
+  double best[4] = {1e30, 1e30, 1e30, 1e30};
+  for (int r = 0; r < repeat; ++r) {
+    const auto a = timeClosest(flat, rays.camera), b = timeClosest(tree, rays.camera);
+    const auto c = timeAny(flat, rays.shadow), d = timeAny(tree, rays.shadow);
+    if (a.second != b.second || c.second != d.second) {
+      std::fprintf(stderr, "bvh_bench: the flat list and the BVH disagree (%zu/%zu hits, %zu/%zu blocked)\n",
+                   a.second, b.second, c.second, d.second);
+      std::exit(1);
+    }
+    best[0] = std::min(best[0], a.first);
+    best[1] = std::min(best[1], b.first);
+    best[2] = std::min(best[2], c.first);
+    best[3] = std::min(best[3], d.first);
+  }
+  const double nc = double(rays.camera.size()) / 1e6, ns = double(rays.shadow.size()) / 1e6;
+  return Speeds{nc / best[0], nc / best[1], ns / std::max(best[2], 1e-12), ns / std::max(best[3], 1e-12)};
+}
+
+// The same scene twice: one searched by the flat loop, one through a BVH (built whatever the sphere count).
+std::pair<Scene, Scene> flatAndTree(const Scene& scene, BvhSplit split = BvhSplit::Sah)
+{
+  Scene flat = scene, tree = scene;
+  flat.accelerator = Bvh();
+  tree.accelerator = Bvh(tree.spheres, BvhBuildOptions{split});
+  return {flat, tree};
+}
+
+int usage()
+{
+  std::cerr << "usage: bvh_bench speed [SCENE.json] [--repeat R]\n"
+               "       bvh_bench crossover [SCENE.json] [--repeat R]\n"
+               "       bvh_bench heatmap [SCENE.json] --split sah|midpoint -o FILE [--width W] [--height H]\n";
+  return 2;
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+  if (argc < 2)
+    return usage();
+  const std::string mode = argv[1];
+  std::string scenePath = sceneDirectory() + "/random_spheres.json", output, splitName = "sah";
+  int repeat = 5, width = 0, height = 0;
+  for (int i = 2; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (i + 1 < argc && arg == "--repeat")
+      repeat = std::max(1, std::atoi(argv[++i]));
+    else if (i + 1 < argc && arg == "--width")
+      width = std::max(1, std::atoi(argv[++i]));
+    else if (i + 1 < argc && arg == "--height")
+      height = std::max(1, std::atoi(argv[++i]));
+    else if (i + 1 < argc && arg == "-o")
+      output = argv[++i];
+    else if (i + 1 < argc && arg == "--split")
+      splitName = argv[++i];
+    else if (!arg.empty() && arg[0] != '-')
+      scenePath = arg;
+    else
+      return usage();
+  }
+  try {
+    const Scene scene = loadScene(scenePath);
+    if (mode == "speed") {
+      const auto [flat, tree] = flatAndTree(scene);
+      const Rays rays = makeRays(flat, width, height);
+      const Speeds s = measure(flat, tree, rays, repeat);
+      std::printf("%s: %zu spheres, %zu camera rays, %zu shadow rays, one thread, best of %d\n", scenePath.c_str(),
+                  scene.spheres.size(), rays.camera.size(), rays.shadow.size(), repeat);
+      std::printf("closest hit: flat %.3f Mrays/s, BVH %.3f Mrays/s, BVH/flat %.1f\n", s.flatClosest, s.bvhClosest,
+                  s.bvhClosest / s.flatClosest);
+      std::printf("any hit:     flat %.3f Mrays/s, BVH %.3f Mrays/s, BVH/flat %.1f\n", s.flatAny, s.bvhAny,
+                  s.bvhAny / s.flatAny);
+      // The work behind those figures: boxes and spheres tested per ray.
+      BvhWork camera, shadow;
+      for (const Ray& ray : rays.camera)
+        camera = camera + tree.intersectWithWork(ray).work;
+      for (const Ray& ray : rays.shadow)
+        shadow = shadow + tree.occludedWithWork(ray).work;
+      std::printf("per camera ray: %.1f boxes, %.1f spheres; per shadow ray: %.1f boxes, %.1f spheres\n",
+                  double(camera.nodesVisited) / double(rays.camera.size()),
+                  double(camera.primitivesTested) / double(rays.camera.size()),
+                  double(shadow.nodesVisited) / double(std::max<std::size_t>(1, rays.shadow.size())),
+                  double(shadow.primitivesTested) / double(std::max<std::size_t>(1, rays.shadow.size())));
+      std::printf("tree: %zu nodes (%zu bytes), depth %d, SAH cost %.2f\n", tree.accelerator.nodes().size(),
+                  tree.accelerator.nodes().size() * sizeof(BvhNode), tree.accelerator.depth(),
+                  double(tree.accelerator.sahCost()));
+    } else if (mode == "crossover") {
+      // The N spheres nearest the focal point, the ground (the largest sphere) always first.
+      std::vector<Sphere> ordered = scene.spheres;
+      std::stable_sort(ordered.begin(), ordered.end(), [&](const Sphere& a, const Sphere& b) {
+        if (a.radius != b.radius && (a.radius > 100 || b.radius > 100))
+          return a.radius > b.radius;
+        return glm::length(a.center - scene.camera.focal) < glm::length(b.center - scene.camera.focal);
+      });
+      std::printf("N spheres | closest hit Mrays/s: flat  BVH  BVH/flat | any hit Mrays/s: flat  BVH  BVH/flat\n");
+      for (std::size_t n : {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 12, 14, 16, 20, 24, 32, 48, 64}) {
+        if (n > ordered.size())
+          break;
+        Scene part = scene;
+        part.spheres.assign(ordered.begin(), ordered.begin() + std::ptrdiff_t(n));
+        const auto [flat, tree] = flatAndTree(part);
+        const Rays rays = makeRays(flat, width, height);
+        const Speeds s = measure(flat, tree, rays, repeat);
+        std::printf("%9zu | %8.2f %6.2f %6.2f | %8.2f %6.2f %6.2f\n", n, s.flatClosest, s.bvhClosest,
+                    s.bvhClosest / s.flatClosest, s.flatAny, s.bvhAny, s.bvhAny / s.flatAny);
+      }
+    } else if (mode == "heatmap") {
+      if (output.empty() || (splitName != "sah" && splitName != "midpoint"))
+        return usage();
+      const auto [flat, tree] = flatAndTree(scene, splitName == "sah" ? BvhSplit::Sah : BvhSplit::Midpoint);
+      const Camera camera = tree.makeCamera(width, height);
+      Image image(camera.width(), camera.height());
+      double total = 0;
+      for (int y = 0; y < camera.height(); ++y)
+        for (int x = 0; x < camera.width(); ++x) {
+          // The work of the camera ray and its shadow rays, as chapter 9's right image counts it.
+          const Ray ray = camera.ray(Vec2(Real(x) + Real(0.5), Real(y) + Real(0.5)));
+          const TracedHit traced = tree.intersectWithWork(ray);
+          BvhWork work = traced.work;
+          if (traced.hit) {
+            const Vec3 N = facingNormal(*traced.hit, ray.direction);
+            for (const PointLight& light : tree.lights)
+              if (auto in = light.arrivalAt(traced.hit->point); in && glm::dot(in->direction, N) > 0)
+                work = work + tree.occludedWithWork(spawnRayTo(*traced.hit, light.position)).work;
+          }
+          const Color c = heatColor(workCost(work));
+          total += double(workCost(work));
+          for (int k = 0; k < 3; ++k)
+            image.at(x, y, k) = float(c[k]);
+        }
+      writeImage(image, output);
+      std::printf("%s split: SAH cost %.2f, depth %d, mean work per pixel %.1f (boxes + 2 x spheres) -> %s\n",
+                  splitName.c_str(), double(tree.accelerator.sahCost()), tree.accelerator.depth(),
+                  total / double(image.width * image.height), output.c_str());
+    } else {
+      return usage();
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "bvh_bench: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
