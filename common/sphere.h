@@ -43,9 +43,8 @@ std::optional<SphereRoots<T>> intersectSphereRoots(const TVec3<T>& o, const TVec
   const TVec3<T> f = o - c;
   const T b = -glm::dot(f, d);
   const TVec3<T> l = f + b * d;
-  // Discriminant from the closest approach, factored so that r² − |l|² does not square a large |l|.
-  const T lLength = glm::length(l);
-  const T disc = (r - lLength) * (r + lLength);
+  // Discriminant from the closest approach: Δ = r² − |l|² (a = 1). No square root yet, so a miss costs none.
+  const T disc = r * r - glm::dot(l, l);
   if (disc < 0)
     return std::nullopt;
 
@@ -66,6 +65,13 @@ std::optional<SphereRoots<T>> intersectSphereRoots(const TVec3<T>& o, const TVec
 template <class T>
 std::optional<T> intersectSphere(const TVec3<T>& o, const TVec3<T>& d, const TVec3<T>& c, T r, T tmin, T tmax)
 {
+  // Outside the sphere (|f|² > r²) and heading away from its centre (b ≤ 0): both roots lie behind the origin
+  // (their product is |f|² − r² > 0 and their sum 2b ≤ 0), so there is nothing ahead. This rejects about half
+  // of all misses before the closest approach is formed. The same terms are computed again, and merged by the
+  // compiler, inside intersectSphereRoots.
+  const TVec3<T> f = o - c;
+  if (glm::dot(f, f) > r * r && glm::dot(f, d) >= 0)
+    return std::nullopt;
   const auto roots = intersectSphereRoots(o, d, c, r);
   if (!roots)
     return std::nullopt;
@@ -120,9 +126,9 @@ TVec3<T> offsetRayOrigin(const TVec3<T>& p, const TVec3<T>& error, const TVec3<T
   TVec3<T> po = p + offset;
   for (int i = 0; i < 3; ++i) {
     if (offset[i] > 0)
-      po[i] = std::nextafter(po[i], std::numeric_limits<T>::infinity());
+      po[i] = nextUp(po[i]);
     else if (offset[i] < 0)
-      po[i] = std::nextafter(po[i], -std::numeric_limits<T>::infinity());
+      po[i] = nextDown(po[i]);
   }
   return po;
 }
