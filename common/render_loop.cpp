@@ -27,6 +27,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 constexpr int kTileSize = 16;
+// A batch of samples is cut to about this long, so that Ctrl-C and a time budget are answered within it.
+constexpr double kBatchSeconds = 0.25;
 
 struct Tile {
   int x0, y0, x1, y1;
@@ -87,21 +89,36 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
   RenderResult result{Film(width, height)};
   const std::vector<Tile> tiles = makeTiles(width, height);
   const int threads = settings.threads > 0 ? settings.threads : omp_get_max_threads();
-  const int passes = settings.spp ? *settings.spp : (settings.seconds ? 0 : 1);
+  const int target = settings.spp ? *settings.spp : (settings.seconds ? 0 : 1); // 0: until the time is spent
 
   const auto start = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
   double lastDraw = -1;
 
-  for (int pass = 0;; ++pass) {
-    if (passes > 0 && pass >= passes)
+  // Samples are taken in batches: batch [s0, s1) gives every pixel samples s0 .. s1 − 1, in that order. A batch
+  // is one OpenMP region, so a batch of many samples keeps the threads busy without a fork and join per sample
+  // (which, on a loaded machine, costs more than the samples of a small image). Batches double in size, and are
+  // cut to about kBatchSeconds (and to what is left of a time budget) so that a stop request is answered soon.
+  int done = 0;
+  while (target == 0 || done < target) {
+    if (done > 0 && settings.seconds && elapsed() >= *settings.seconds)
       break;
-    if (pass > 0 && settings.seconds && elapsed() >= *settings.seconds)
-      break;
-    if (pass > 0 && settings.stop && settings.stop->load()) {
+    if (done > 0 && settings.stop && settings.stop->load()) {
       result.interrupted = true;
       break;
     }
+    int batch = std::max(1, done);
+    if (done > 0) {
+      const double perSample = elapsed() / done;
+      double budget = kBatchSeconds;
+      if (settings.seconds)
+        budget = std::min(budget, *settings.seconds - elapsed());
+      batch = std::clamp(int(budget / std::max(perSample, 1e-9)), 1, batch);
+    }
+    if (target > 0)
+      batch = std::min(batch, target - done);
+    const int s0 = done, s1 = done + batch;
+
     std::uint64_t rays = 0, bad = 0;
     std::atomic<int> tilesDone{0};
 #pragma omp parallel num_threads(threads) reduction(+ : rays, bad)
@@ -112,28 +129,28 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
         const Tile& tile = tiles[t];
         // [pixel_loop]
         for (int y = tile.y0; y < tile.y1; ++y)
-          for (int x = tile.x0; x < tile.x1; ++x) {
-            // One pixel sample: its own random numbers, a film position, the chapter's estimate.
-            Sampler sampler(settings.seed, x, y, std::uint64_t(pass));
-            const Vec2 offset = pixelOffset(settings.pixelSampling, std::uint64_t(pass), settings.spp, sampler);
-            const Ray ray = camera.ray(Vec2(Real(x), Real(y)) + offset);
-            Color L = trace(scene, ray, sampler, settings.maxDepth);
-            // Guard the film: a NaN, infinite or negative sample is counted and replaced by black.
-            if (!isFinite(L) || L.r < 0 || L.g < 0 || L.b < 0) {
-              ++bad;
-              L = Color(0);
+          for (int x = tile.x0; x < tile.x1; ++x)
+            for (int s = s0; s < s1; ++s) {
+              // One pixel sample: its own random numbers, a film position, the chapter's estimate.
+              Sampler sampler(settings.seed, x, y, std::uint64_t(s));
+              const Vec2 offset = pixelOffset(settings.pixelSampling, std::uint64_t(s), settings.spp, sampler);
+              const Ray ray = camera.ray(Vec2(Real(x), Real(y)) + offset);
+              Color L = trace(scene, ray, sampler, settings.maxDepth);
+              // Guard the film: a NaN, infinite or negative sample is counted and replaced by black.
+              if (!isFinite(L) || L.r < 0 || L.g < 0 || L.b < 0) {
+                ++bad;
+                L = Color(0);
+              }
+              result.film.add(x, y, L);
             }
-            result.film.add(x, y, L);
-          }
         // [pixel_loop]
-        const int done = ++tilesDone;
+        const int tilesFinished = ++tilesDone;
         if (settings.progress && omp_get_thread_num() == 0) {
           const double now = elapsed();
           if (now - lastDraw > 0.1) {
             lastDraw = now;
-            const double fraction = passes > 0 ? (pass + double(done) / double(tiles.size())) / passes
-                                               : now / *settings.seconds;
-            drawProgress(fraction, now);
+            const double samples = s0 + double(batch) * tilesFinished / double(tiles.size());
+            drawProgress(target > 0 ? samples / target : now / *settings.seconds, now);
           }
         }
       }
@@ -141,7 +158,8 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
     }
     result.rays += rays;
     result.badSamples += bad;
-    result.spp = pass + 1;
+    done = s1;
+    result.spp = done;
   }
   result.seconds = elapsed();
   if (settings.progress) {

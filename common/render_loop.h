@@ -82,10 +82,12 @@ struct RenderResult {
 
 /// Renders `scene` through `camera` with `trace`.
 ///
-/// The image is rendered in passes of one sample per pixel over 16×16 tiles, spread over threads by OpenMP.
+/// The image is rendered in batches of samples over 16×16 tiles, spread over threads by OpenMP; a batch gives
+/// every pixel the same samples, batches double in size and are cut to about a quarter of a second.
 /// Sample s of pixel (x, y) draws its random numbers from Sampler(seed, x, y, s) and is added to the film in
-/// the order of s, so the image is bit-identical for any thread count. With `seconds`, passes continue until
-/// the budget is spent (at least one pass); every pixel always has the same number of samples.
+/// the order of s, so the image is bit-identical for any thread count (and any batching). With `seconds`,
+/// batches continue until the budget is spent (at least one sample), each cut to what is left of it; `stop`
+/// is looked at between batches. Every pixel always has the same number of samples.
 RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
                     const TraceFunction& trace);
 
