@@ -42,7 +42,7 @@ LightSampler::LightSampler(const Scene& scene) : scene_(scene), sphereProbabilit
   cdf_.back() = 1;
 }
 
-/// [sample]
+// [sample]
 std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Vec2 u) const
 {
   if (cdf_.empty())
@@ -75,7 +75,7 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Ve
   const Vec3 target = ref + std::max(Real(0), t) * wi;
   return LightSample{wi, target, scene_.materials[std::size_t(s.material)].emission, pdf, light, false};
 }
-/// [sample]
+// [sample]
 
 bool lightVisible(const Scene& scene, const Hit& hit, const LightSample& ls)
 {

@@ -22,6 +22,7 @@ namespace raylife {
 
 // ---- The cone a sphere subtends -------------------------------------------------------------------------------
 
+// [cone]
 /// 1 − cosθmax of the cone that a sphere with sin²θmax = r²/d² subtends, computed without cancellation.
 ///
 /// The direct form 1 − √(1 − sin²θmax) subtracts two numbers that agree in every digit when the light is small or
@@ -77,6 +78,8 @@ template <class T> TVec3<T> sampleSphereCone(const TVec3<T>& ref, const TVec3<T>
   return glm::normalize(sinTheta * std::cos(phi) * s + sinTheta * std::sin(phi) * t + cosTheta * n);
 }
 
+// [cone]
+
 // ---- Lights and their choice ----------------------------------------------------------------------------------
 
 /// A direction towards a light, chosen by LightSampler::sample, with what the estimator needs to weight it.
@@ -126,7 +129,7 @@ private:
   std::vector<Real> sphereProbability_; // per sphere of the scene: its choice probability (0 if not a light)
 };
 
-/// [visible]
+// [visible]
 /// True when light sample `ls`, taken at the hit `hit`, is not blocked: the light is what the shadow ray sees.
 ///
 /// For an emissive sphere the shadow ray is traced like any other ray, and the sample is visible when the first
@@ -136,11 +139,11 @@ private:
 /// light's own surface outwards finds something else, or nothing). For a point light, a shadow ray that stops just
 /// short of it (spawnRayTo) must hit nothing.
 bool lightVisible(const Scene& scene, const Hit& hit, const LightSample& ls);
-/// [visible]
+// [visible]
 
 // ---- Multiple importance sampling -----------------------------------------------------------------------------
 
-/// [heuristics]
+// [heuristics]
 /// Veach's balance heuristic for one sample from each of two strategies: the weight f/(f + g) of a sample drawn by
 /// the strategy of pdf f, where the other strategy would have drawn it with pdf g. In [0, 1]; the weights of the two
 /// strategies for one direction sum to 1. 0 when f = 0; 1 when g = 0 < f. (Written as 1/(1 + g/f), so neither
@@ -165,6 +168,6 @@ inline Real powerHeuristic(Real f, Real g)
   const Real ratio = g / f;
   return 1 / (1 + ratio * ratio);
 }
-/// [heuristics]
+// [heuristics]
 
 } // namespace raylife
