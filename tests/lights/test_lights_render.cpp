@@ -44,13 +44,13 @@ struct Verdict {
 // Compares two Monte Carlo images (or an image and an expectation with zero variance) over the pixels `use` marks,
 // per pixel channel, or per channel of blocks of block × block pixels (z of the block's summed difference).
 Verdict compare(const Image& a, const Image& varA, const Image& b, const Image& varB, const std::string& what,
-                const std::vector<bool>* use = nullptr, int block = 1)
+                const std::vector<bool>* use = nullptr, int block = 1, double systematic = 0)
 {
   REQUIRE(a.width == b.width);
   REQUIRE(a.height == b.height);
   Verdict v;
   std::size_t failed = 0, tests = 0;
-  double sumDiff[3] = {0, 0, 0}, sumVar[3] = {0, 0, 0};
+  double sumDiff[3] = {0, 0, 0}, sumVar[3] = {0, 0, 0}, sumB[3] = {0, 0, 0};
   for (int by = 0; by < a.height; by += block)
     for (int bx = 0; bx < a.width; bx += block)
       for (int c = 0; c < 3; ++c) {
@@ -61,6 +61,7 @@ Verdict compare(const Image& a, const Image& varA, const Image& b, const Image& 
             if (use && !(*use)[std::size_t(y * a.width + x)])
               continue;
             diff += double(a.at(x, y, c)) - double(b.at(x, y, c));
+            sumB[c] += std::abs(double(b.at(x, y, c)));
             var += double(varA.at(x, y, c)) + double(varB.at(x, y, c)) + kVarianceFloor;
             ++pixels;
           }
@@ -73,7 +74,9 @@ Verdict compare(const Image& a, const Image& varA, const Image& b, const Image& 
       }
   v.failedShare = double(failed) / double(tests);
   for (int c = 0; c < 3; ++c) {
-    const double z = sumDiff[c] / std::sqrt(sumVar[c]);
+    // A known systematic error (relative to the image mean) is allowed before the difference counts against z.
+    const double excess = std::max(0.0, std::abs(sumDiff[c]) - systematic * sumB[c]);
+    const double z = std::copysign(excess, sumDiff[c]) / std::sqrt(sumVar[c]);
     if (std::abs(z) > std::abs(v.worstTotalZ))
       v.worstTotalZ = z;
   }
@@ -258,7 +261,8 @@ Expectation expectation(const Scene& scene, int k, const std::function<Color(con
 }
 
 void checkAnalytic(const std::string& sceneFile, const std::string& args, int k,
-                   const std::function<Color(const Scene&, const std::optional<Hit>&)>& value, const std::string& what)
+                   const std::function<Color(const Scene&, const std::optional<Hit>&)>& value, const std::string& what,
+                   double systematic = 0)
 {
   const Scene scene = loadScene(sceneFile);
   const Expectation e = expectation(scene, k, [&](const std::optional<Hit>& h) { return value(scene, h); });
@@ -266,7 +270,7 @@ void checkAnalytic(const std::string& sceneFile, const std::string& args, int k,
   for (const auto& [binary, chapter] : {std::pair{std::string(RAYLIFE_STEP07), "chapter 7"},
                                         std::pair{std::string(RAYLIFE_STEP08), "chapter 8"}}) {
     const ChapterRender r = run(binary, sceneFile, args, what + chapter);
-    CHECK(compare(r.mean, r.variance, e.mean, none, what + ", " + chapter, &e.use).passed());
+    CHECK(compare(r.mean, r.variance, e.mean, none, what + ", " + chapter, &e.use, 1, systematic).passed());
   }
 }
 
@@ -295,6 +299,12 @@ TEST_CASE("analytic: inside an emitting sphere chapters 7 and 8 see Le/(1 − ρ
                 "inside an emitting sphere");
 }
 
+// The floor is a sphere of radius 10⁴ centred 10⁴ below it. In the float build its hit points are rounded to the
+// float spacing at 10⁴ (about 10⁻³) in height, which moves the irradiance from the lamp, 1 to 1.5 above, by up to
+// 2·10⁻³ relative; light sampling's variance is low enough to see that (z ≈ −4 over the image, measured), so the float
+// build allows that much systematic error in the image mean. The double build allows none.
+constexpr double kFloorSystematic = sizeof(Real) == 4 ? 2e-3 : 0;
+
 TEST_CASE("analytic: a floor under a spherical light is ρ Le (R/D)² cosθ for chapters 7 and 8")
 {
   checkAnalytic(kScenes + "/analytic/area_light.json", "--spp 256 --seed 4", 4,
@@ -311,7 +321,7 @@ TEST_CASE("analytic: a floor under a spherical light is ρ Le (R/D)² cosθ for 
                   return s.materials[std::size_t(s.spheres[0].material)].color * Le *
                          (lamp.radius * lamp.radius / (D * D)) * cosTheta;
                 },
-                "floor under a spherical light");
+                "floor under a spherical light", kFloorSystematic);
 }
 
 // ---- Golden images ----------------------------------------------------------------------------------------------
