@@ -258,6 +258,11 @@ std::string formatCount(std::uint64_t n)
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFunction& trace)
 {
+  return runChapter(argc, argv, chapter, TraceFactory([&trace](const Scene&) { return trace; }));
+}
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
+{
   const std::string name = chapter.binary;
   RenderOptions options;
   try {
@@ -317,6 +322,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
     auto previousInt = std::signal(SIGINT, onInterrupt);
     auto previousTerm = std::signal(SIGTERM, onInterrupt);
     const Camera camera = scene.makeCamera(width, height);
+    const TraceFunction trace = makeTrace(scene);
     RenderResult result = render(scene, camera, settings, trace);
     std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
     if (chapter.besideTrace) {

@@ -97,11 +97,18 @@ std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGive
 /// The scenes/ folder of the source tree (compiled in), where default scenes live.
 std::string sceneDirectory();
 
+/// Makes a chapter's trace function for a loaded scene. runChapter calls it once, after the scene is loaded and
+/// before the render, so that a chapter can build what depends only on the scene (chapter 7's light sampler) once,
+/// and capture it in the trace function it returns, without global state. The scene outlives the trace function.
+using TraceFactory = std::function<TraceFunction(const Scene& scene)>;
+
 /// A chapter's whole main(): parses the command line, loads the scene, renders with `trace`, writes the images
 /// (all or nothing) and prints the summary line. Returns the exit status: 0 done, 1 bad input or failed write,
 /// 2 bad command line, 130 interrupted (the image so far was written).
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFunction& trace);
 /// The same, for a trace function without a depth limit.
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace);
+/// The same, for a chapter whose trace function is made per scene by `makeTrace` (called once, see TraceFactory).
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace);
 
 } // namespace raylife

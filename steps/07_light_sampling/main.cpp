@@ -1,0 +1,104 @@
+// Chapter 7 — explicit light sampling (next-event estimation).
+//
+// Chapter 6 finds light only when a path happens to hit an emitter. A small light is hit rarely, so most paths
+// bring back nothing and a few bring back a lot: noise. But at every bounce we know where the lights are, so ask
+// them directly. Split the light arriving at x into what comes straight from the emitters (direct lighting) and
+// what comes after another bounce (indirect), and estimate each with the sampler that suits it:
+//   direct:   pick a point on a light, trace a shadow ray to it, and if nothing blocks it add
+//             f_r(x, ωi → ωo) Le cosθi / p(ωi)   (p the density with which the light sampler chose ωi);
+//   indirect: go on with the BSDF-sampled direction, as in chapter 6.
+// The light sampler (common/light_sampling.h) chooses one light with probability ∝ its power, then a direction
+// uniform in the cone the emissive sphere subtends: every such direction sees the light, so an unblocked shadow
+// ray always brings back Le, and p is just 1/(solid angle of the light) times the choice probability. A point
+// light is a delta light: its one direction, with the inverse-square law, I/r².
+// Nothing may be counted twice: light that a BSDF-sampled ray hits is direct light that the light sampler has
+// already counted at the previous vertex, so emission is added only where light sampling could not have found it:
+// on the camera ray, and after a specular bounce (a mirror or glass has no non-zero f for a sampled direction).
+// The background is not sampled as a light, so it is still counted by whatever ray escapes.
+#include "bsdf.h"
+#include "frame.h"
+#include "light_sampling.h"
+#include "render_loop.h"
+#include "sampling.h"
+
+using namespace raylife;
+
+/// [trace]
+// One path's estimate of the radiance arriving along `primary`, of at most `maxDepth` bounces (−1: no limit).
+Color trace(const LightSampler& lights, const Scene& scene, const Ray& primary, Sampler& sampler, int maxDepth)
+{
+  Color L(0);    // the radiance this path has gathered
+  Color beta(1); // its throughput: the product of f·|cosθi|/pdf of the bounces so far
+  bool countEmission = true; // the camera ray, or a specular bounce: light sampling could not have found this light
+  Ray ray = primary;
+  for (int bounce = 0;; ++bounce) {
+    // Follow the ray. A ray that leaves the scene sees the background (never light-sampled, so always counted).
+    const std::optional<Hit> hit = scene.intersect(ray);
+    if (!hit) {
+      L += beta * scene.background;
+      break;
+    }
+    const Material& m = scene.materials[std::size_t(hit->material)];
+
+    // Le(x, ωo), only where next-event estimation at the previous vertex could not have counted it.
+    if (countEmission)
+      L += beta * m.emission;
+    if (bounce == maxDepth)
+      break;
+    const Frame frame = Frame::fromNormal(hit->normal);
+    const Vec3 wo = frame.toLocal(-ray.direction);
+
+    // Next-event estimation: direct light from one light sample, through a shadow ray (not for delta BSDFs, whose
+    // f is 0 for every direction chosen any other way).
+    const bool specularSurface = m.type == MaterialType::Mirror || m.type == MaterialType::Glass;
+    if (!specularSurface) {
+      const Real uLight = sampler.next1D();
+      const Vec2 uDirection = sampler.next2D();
+      if (const std::optional<LightSample> ls = lights.sample(hit->point, uLight, uDirection)) {
+        const Vec3 wi = frame.toLocal(ls->wi);
+        const Color f = bsdfEval(m, wo, wi);
+        if (f != Color(0) && lightVisible(scene, *hit, *ls))
+          L += beta * f * std::abs(wi.z) * ls->Li / ls->pdf;
+      }
+    }
+
+    // The indirect light: choose ωi from the BSDF, as in chapter 6.
+    const std::optional<BsdfSample> bs = bsdfSample(m, wo, sampler.next2D(), sampler.next1D());
+    if (!bs)
+      break;
+    beta *= bs->f * std::abs(bs->wi.z) / bs->pdf;
+    if (beta == Color(0))
+      break; // nothing more can reach the eye along this path
+    countEmission = bs->specular;
+
+    // Russian roulette: go on with probability q, and divide by q so that the expectation is unchanged.
+    if (bounce >= kRouletteMinBounces) {
+      const Real q = rouletteSurvival(beta);
+      if (sampler.next1D() >= q)
+        break;
+      beta /= q;
+    }
+    ray = spawnRay(*hit, frame.toWorld(bs->wi));
+  }
+  return L;
+}
+/// [trace]
+
+int main(int argc, char** argv)
+{
+  /// [chapter]
+  const ChapterInfo chapter{.binary = "step07_light_sampling",
+                            .defaultScene = "cornell.json",
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
+                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth,
+                            .pixelSampling = PixelSampling::Jittered,
+                            .defaultSpp = 64,
+                            .defaultMaxDepth = -1};
+  /// [chapter]
+  // The light sampler is built once per scene, before the render, and shared (read-only) by every thread.
+  return runChapter(argc, argv, chapter, [](const Scene& scene) -> TraceFunction {
+    return [lights = LightSampler(scene)](const Scene& s, const Ray& ray, Sampler& sampler, int maxDepth) {
+      return trace(lights, s, ray, sampler, maxDepth);
+    };
+  });
+}

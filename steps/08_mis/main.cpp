@@ -1,0 +1,148 @@
+// Chapter 8 — multiple importance sampling: BRDF sampling against luminaire sampling.
+//
+// Chapters 6 and 7 each estimate direct light with one strategy, and each fails somewhere. Sampling the BRDF
+// (chapter 6) is good on a near-mirror, whose narrow lobe points where the light comes from, and bad under a small
+// light, which a rough BRDF's wide lobe rarely finds. Sampling the light (chapter 7) is the opposite: good for a
+// small light seen by a rough surface, bad for a large light seen by a near-mirror, where almost every direction
+// picked on the light has f ≈ 0 and the few that hit the lobe carry huge weights f/p.
+// Veach's multiple importance sampling takes both samples at every non-specular vertex and weights each by how
+// well its strategy could produce it. A direction ωi that strategy s drew with pdf p_s, and that the other strategy
+// would have drawn with pdf p_t, counts with weight w_s = p_s²/(p_s² + p_t²) (the power heuristic; with --heuristic
+// balance, p_s/(p_s + p_t)). For every direction the weights of the two strategies sum to 1, so the sum of the two
+// weighted estimates is still unbiased, and each direction is counted mostly by the strategy that samples it well:
+//   light sample:   f Le cosθi / p_light · w_light(p_light, p_bsdf)      (a shadow ray, as in chapter 7)
+//   BSDF sample:    the path goes on as in chapter 6; if it hits an emitter, add β Le · w_bsdf(p_bsdf, p_light).
+// p_light of a BSDF-sampled direction is the pdf the light sampler would have had for it (LightSampler::pdf);
+// p_bsdf of a light-sampled direction is the BSDF's own pdf (bsdfPdf). Point lights and the specular BSDFs (mirror,
+// glass) are deltas that only one strategy can find, so their samples keep weight 1, as does the background (which
+// only BSDF sampling finds, as in chapter 7).
+#include "bsdf.h"
+#include "frame.h"
+#include "light_sampling.h"
+#include "render_loop.h"
+#include "sampling.h"
+
+#include <cstring>
+#include <iostream>
+#include <vector>
+
+using namespace raylife;
+
+/// Which MIS heuristic weights the two strategies.
+enum class Heuristic { Power, Balance };
+
+/// [weight]
+// The MIS weight of a sample that its strategy drew with pdf `p`, the other strategy having pdf `q` for it.
+Real misWeight(Heuristic heuristic, Real p, Real q)
+{
+  return heuristic == Heuristic::Power ? powerHeuristic(p, q) : balanceHeuristic(p, q);
+}
+/// [weight]
+
+/// [trace]
+// One path's estimate of the radiance arriving along `primary`, of at most `maxDepth` bounces (−1: no limit).
+Color trace(const LightSampler& lights, Heuristic heuristic, const Scene& scene, const Ray& primary,
+            Sampler& sampler, int maxDepth)
+{
+  Color L(0);    // the radiance this path has gathered
+  Color beta(1); // its throughput: the product of f·|cosθi|/pdf of the bounces so far
+  bool specularBounce = true; // the camera ray or a delta lobe: only this path could find what it hits
+  Real bsdfPdfPrev = 0;       // the pdf with which the previous vertex's BSDF chose this ray's direction
+  Vec3 previousPoint(0);      // that vertex
+  Ray ray = primary;
+  for (int bounce = 0;; ++bounce) {
+    // Follow the ray. A ray that leaves the scene sees the background (only BSDF sampling finds it: weight 1).
+    const std::optional<Hit> hit = scene.intersect(ray);
+    if (!hit) {
+      L += beta * scene.background;
+      break;
+    }
+    const Material& m = scene.materials[std::size_t(hit->material)];
+
+    // Le(x, ωo), found by BSDF sampling: weighted against the chance that light sampling found it too.
+    if (m.isEmissive()) {
+      if (specularBounce)
+        L += beta * m.emission;
+      else
+        L += beta * m.emission *
+             misWeight(heuristic, bsdfPdfPrev, lights.pdf(previousPoint, hit->sphere));
+    }
+    if (bounce == maxDepth)
+      break;
+    const Frame frame = Frame::fromNormal(hit->normal);
+    const Vec3 wo = frame.toLocal(-ray.direction);
+
+    // Light sampling, as in chapter 7, weighted against the chance that the BSDF chose the same direction.
+    const bool specularSurface = m.type == MaterialType::Mirror || m.type == MaterialType::Glass;
+    if (!specularSurface) {
+      const Real uLight = sampler.next1D();
+      const Vec2 uDirection = sampler.next2D();
+      if (const std::optional<LightSample> ls = lights.sample(hit->point, uLight, uDirection)) {
+        const Vec3 wi = frame.toLocal(ls->wi);
+        const Color f = bsdfEval(m, wo, wi);
+        if (f != Color(0) && lightVisible(scene, *hit, *ls)) {
+          const Real weight = ls->delta ? 1 : misWeight(heuristic, ls->pdf, bsdfPdf(m, wo, wi));
+          L += beta * f * std::abs(wi.z) * ls->Li * (weight / ls->pdf);
+        }
+      }
+    }
+
+    // BSDF sampling: the path goes on, and remembers the pdf for the emitter it may hit next.
+    const std::optional<BsdfSample> bs = bsdfSample(m, wo, sampler.next2D(), sampler.next1D());
+    if (!bs)
+      break;
+    beta *= bs->f * std::abs(bs->wi.z) / bs->pdf;
+    if (beta == Color(0))
+      break; // nothing more can reach the eye along this path
+    specularBounce = bs->specular;
+    bsdfPdfPrev = bs->pdf;
+    previousPoint = hit->point;
+
+    // Russian roulette: go on with probability q, and divide by q so that the expectation is unchanged.
+    if (bounce >= kRouletteMinBounces) {
+      const Real q = rouletteSurvival(beta);
+      if (sampler.next1D() >= q)
+        break;
+      beta /= q;
+    }
+    ray = spawnRay(*hit, frame.toWorld(bs->wi));
+  }
+  return L;
+}
+/// [trace]
+
+int main(int argc, char** argv)
+{
+  /// [chapter]
+  const ChapterInfo chapter{.binary = "step08_mis",
+                            .defaultScene = "mis.json",
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
+                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth,
+                            .pixelSampling = PixelSampling::Jittered,
+                            .defaultSpp = 64,
+                            .defaultMaxDepth = -1};
+  /// [chapter]
+  // This chapter's own option, --heuristic power|balance (default power), taken out before the shared parser.
+  Heuristic heuristic = Heuristic::Power;
+  std::vector<char*> args;
+  for (int i = 0; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--heuristic") == 0 && i + 1 < argc) {
+      const std::string value = argv[++i];
+      if (value != "power" && value != "balance") {
+        std::cerr << "step08_mis: --heuristic must be power or balance, not " << value << "\n";
+        return 2;
+      }
+      heuristic = value == "power" ? Heuristic::Power : Heuristic::Balance;
+      continue;
+    }
+    if (std::strcmp(argv[i], "--help") == 0)
+      std::cout << "step08_mis also takes --heuristic power|balance: the MIS heuristic (default power).\n";
+    args.push_back(argv[i]);
+  }
+  // The light sampler is built once per scene, before the render, and shared (read-only) by every thread.
+  return runChapter(int(args.size()), args.data(), chapter, [heuristic](const Scene& scene) -> TraceFunction {
+    return [heuristic, lights = LightSampler(scene)](const Scene& s, const Ray& ray, Sampler& sampler, int maxDepth) {
+      return trace(lights, heuristic, s, ray, sampler, maxDepth);
+    };
+  });
+}
