@@ -171,7 +171,7 @@ TEST_CASE("the cone pdf is finite and positive on, inside and far outside the li
 
 // ---- Choosing a light ---------------------------------------------------------------------------------------------
 
-TEST_CASE("lights are chosen in proportion to their power; the pdf for a direction matches the sampler's")
+TEST_CASE("lights are chosen in proportion to their power and the pdf for a direction matches the sampler's")
 {
   // Power: π·Le·4πr² for a sphere, 4π·I for a point light (luminance): 4π²·1·1, 4π²·4·0.25 and 4π·π/4: 1 : 1 : 0.25.
   const Scene scene = parseScene(R"({
