@@ -50,7 +50,9 @@ template <class T> T sphereConePdf(const TVec3<T>& ref, const TVec3<T>& c, T r)
 
 /// A direction from `ref` chosen uniformly in the solid angle the sphere (centre `c`, radius `r` > 0) subtends:
 /// uniform in its cone from outside; uniform over the whole sphere of directions from inside or on it. Its pdf is
-/// sphereConePdf for every direction. @param u uniform in [0, 1)². @return a unit direction (never NaN).
+/// sphereConePdf for every direction.
+/// @param ref the point the direction leaves from, world space. @param c the sphere's centre, world space.
+/// @param r the sphere's radius, > 0. @param u uniform in [0, 1)². @return a unit direction (never NaN).
 template <class T> TVec3<T> sampleSphereCone(const TVec3<T>& ref, const TVec3<T>& c, T r, glm::vec<2, T> u)
 {
   const TVec3<T> toCentre = c - ref;
@@ -110,7 +112,8 @@ public:
 
   /// One light, chosen with probability ∝ power by `uLight`, and a direction towards it from `ref`, the shaded
   /// point on a surface: uniform in the emissive sphere's cone (sampleSphereCone), or the point light itself.
-  /// @param uLight uniform in [0, 1). @param u uniform in [0, 1)². @return nothing when there is no light, or the
+  /// @param ref the shaded point, world space. @param uLight uniform in [0, 1). @param u uniform in [0, 1)².
+  /// @return nothing when there is no light, or the
   /// sample carries no light (ref at a point light's position).
   std::optional<LightSample> sample(const Vec3& ref, Real uLight, Vec2 u) const;
 
