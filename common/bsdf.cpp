@@ -18,6 +18,16 @@ bool sameSide(const Vec3& wo, const Vec3& wi) { return wo.z * wi.z > 0; }
 } // namespace
 
 // [refract]
+namespace {
+// cos²θt = 1 − sin²θi/η², written as ((η − 1)(η + 1) + cos²θi)/η² so that nothing cancels: the textbook
+// 1 − (1 − cos²θi)/η² loses the small cos²θi of a grazing ray (and with η = 1 bends a ray it must not bend).
+// ≤ 0 means total internal reflection. cosI ≥ 0, eta > 0 (transmitted over incident index).
+Real cosTransmittedSquared(Real cosI, Real eta)
+{
+  return ((eta - 1) * (eta + 1) + cosI * cosI) / (eta * eta);
+}
+} // namespace
+
 std::optional<Vec3> refract(const Vec3& wo, const Vec3& n, Real eta)
 {
   // Which side: from outside the ray enters (η = η_t/η_i = eta); from inside it leaves (1/eta, normal flipped).
@@ -29,11 +39,10 @@ std::optional<Vec3> refract(const Vec3& wo, const Vec3& n, Real eta)
     nFacing = -n;
   }
   // Snell's law: sin²θt = sin²θi / η²; past 1 there is no refracted ray (total internal reflection).
-  const Real sin2I = std::max(Real(0), 1 - cosI * cosI);
-  const Real sin2T = sin2I / (eta * eta);
-  if (sin2T >= 1)
+  const Real cos2T = cosTransmittedSquared(cosI, eta);
+  if (cos2T <= 0)
     return std::nullopt;
-  const Real cosT = std::sqrt(1 - sin2T);
+  const Real cosT = std::sqrt(cos2T);
   // The tangential part shrinks by 1/η, the normal part makes the result unit and points through the surface.
   return glm::normalize(-wo / eta + (cosI / eta - cosT) * nFacing);
 }
@@ -48,10 +57,10 @@ Real fresnelDielectric(Real cosThetaO, Real eta)
     cosI = -cosI;
   }
   // Snell's law for the refracted angle; total internal reflection reflects everything.
-  const Real sin2T = std::max(Real(0), 1 - cosI * cosI) / (eta * eta);
-  if (sin2T >= 1)
+  const Real cos2T = cosTransmittedSquared(cosI, eta);
+  if (cos2T <= 0)
     return 1;
-  const Real cosT = std::sqrt(std::max(Real(0), 1 - sin2T));
+  const Real cosT = std::sqrt(cos2T);
   // The Fresnel equations for parallel and perpendicular polarisation (η = η_t/η_i), averaged.
   const Real rParallel = (eta * cosI - cosT) / (eta * cosI + cosT);
   const Real rPerpendicular = (cosI - eta * cosT) / (cosI + eta * cosT);
