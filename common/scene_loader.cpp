@@ -6,8 +6,13 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -16,6 +21,21 @@ namespace raylife {
 namespace {
 
 using Json = nlohmann::json;
+
+/// Largest scene file loadScene reads, in bytes (64 MiB): far beyond any real scene, small enough to hold.
+constexpr std::size_t kMaxSceneBytes = std::size_t(64) << 20;
+
+// The value of a JSON string literal `quoted` (with its quotes), escapes resolved; "" if it is malformed.
+std::string decodeString(std::string_view quoted)
+{
+  if (quoted.find('\\') == std::string_view::npos)
+    return std::string(quoted.substr(1, quoted.size() >= 2 ? quoted.size() - 2 : 0));
+  try {
+    return Json::parse(quoted).get<std::string>();
+  } catch (const Json::exception&) {
+    return "";
+  }
+}
 
 // ---- Where in the text a JSON path points, for line:column in messages --------------------------------------
 // nlohmann/json keeps no source positions, so this small scanner walks the (already valid) text to the value
@@ -107,7 +127,7 @@ private:
       const std::size_t keyEnd = skipString(pos);
       if (keyEnd == npos)
         return npos;
-      const std::string_view name = text_.substr(pos + 1, keyEnd - pos - 2);
+      const std::string name = decodeString(text_.substr(pos, keyEnd - pos));
       pos = skipSpace(keyEnd);
       if (pos >= text_.size() || text_[pos] != ':')
         return npos;
@@ -147,6 +167,7 @@ private:
   std::string_view text_;
 };
 
+// "LINE:COLUMN" of a byte offset; lines and columns count from 1, columns in characters (UTF-8 code points).
 std::string lineColumn(std::string_view text, std::size_t offset)
 {
   std::size_t line = 1, column = 1;
@@ -154,11 +175,65 @@ std::string lineColumn(std::string_view text, std::size_t offset)
     if (text[i] == '\n') {
       ++line;
       column = 1;
-    } else {
+    } else if ((static_cast<unsigned char>(text[i]) & 0xC0) != 0x80) { // not a UTF-8 continuation byte
       ++column;
     }
   }
   return std::to_string(line) + ":" + std::to_string(column);
+}
+
+// `text` cut to at most `max` bytes (at a UTF-8 character boundary), with "..." when it was cut: names taken
+// from the file are quoted in messages, and a message must stay short whatever the file holds.
+std::string shorten(std::string_view text, std::size_t max = 40)
+{
+  if (text.size() <= max)
+    return std::string(text);
+  std::size_t cut = max - 3;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80)
+    --cut;
+  return std::string(text.substr(0, cut)) + "...";
+}
+
+// `text` made safe to print on one line: control characters become \n, \t or \u00XX, and bytes that are not
+// valid UTF-8 become \xXX, so a message never breaks the terminal or the line it stands on.
+std::string printable(std::string_view text)
+{
+  std::string out;
+  char buffer[8];
+  for (std::size_t i = 0; i < text.size();) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c == 0x7f) {
+      if (c == '\n')
+        out += "\\n";
+      else if (c == '\t')
+        out += "\\t";
+      else {
+        std::snprintf(buffer, sizeof buffer, "\\u%04x", unsigned(c));
+        out += buffer;
+      }
+      ++i;
+      continue;
+    }
+    // The length of the UTF-8 sequence c starts, and whether it is well formed (no overlongs or surrogates).
+    std::size_t n = c < 0x80 ? 1 : (c >= 0xC2 && c <= 0xDF) ? 2 : (c >= 0xE0 && c <= 0xEF) ? 3 : (c >= 0xF0 && c <= 0xF4) ? 4 : 0;
+    bool ok = n > 0 && i + n <= text.size();
+    for (std::size_t k = 1; ok && k < n; ++k)
+      ok = (static_cast<unsigned char>(text[i + k]) & 0xC0) == 0x80;
+    if (ok && n >= 3) {
+      const auto c1 = static_cast<unsigned char>(text[i + 1]);
+      ok = !(c == 0xE0 && c1 < 0xA0) && !(c == 0xED && c1 >= 0xA0) && !(c == 0xF0 && c1 < 0x90) &&
+           !(c == 0xF4 && c1 >= 0x90);
+    }
+    if (!ok) {
+      std::snprintf(buffer, sizeof buffer, "\\x%02x", unsigned(c));
+      out += buffer;
+      ++i;
+      continue;
+    }
+    out.append(text.substr(i, n));
+    i += n;
+  }
+  return out;
 }
 
 std::size_t editDistance(std::string_view a, std::string_view b)
@@ -190,15 +265,126 @@ std::string suggestion(std::string_view word, const std::vector<std::string>& ca
       best = c;
     }
   }
-  return best.empty() ? "" : " (did you mean '" + best + "'?)";
+  return best.empty() ? "" : " (did you mean '" + shorten(best) + "'?)";
 }
 
+// 'a', 'b', 'c': at most the first 12 words, each shortened.
 std::string joinQuoted(const std::vector<std::string>& words)
 {
+  constexpr std::size_t kMaxWords = 12;
   std::string out;
-  for (std::size_t i = 0; i < words.size(); ++i)
-    out += (i ? ", '" : "'") + words[i] + "'";
+  for (std::size_t i = 0; i < words.size() && i < kMaxWords; ++i)
+    out += (i ? ", '" : "'") + shorten(words[i]) + "'";
+  if (words.size() > kMaxWords)
+    out += " and " + std::to_string(words.size() - kMaxWords) + " more";
   return out;
+}
+
+// ---- What nlohmann/json accepts but a scene file must not contain -----------------------------------------
+// A fault found by scanning the text itself: where it is (byte offset), the JSON path to it, and what is wrong.
+struct TextFault {
+  std::size_t offset;
+  std::string path;
+  std::string message;
+};
+
+/// Deepest nesting of objects and arrays a scene file may have. The format needs 4 ({"materials": {"x":
+/// {"color": [...]}}}); the limit keeps every recursive walk of the value (dump(), the Locator) shallow.
+constexpr std::size_t kMaxNesting = 32;
+
+// Walks the text of a JSON document iteratively and finds what nlohmann/json lets pass: nesting deeper than
+// kMaxNesting, a key given twice in one object (nlohmann keeps the last silently), a number too large for a
+// double (which nlohmann reports without a position). On text that is not valid JSON it stops at the first
+// thing it does not understand and reports nothing.
+std::optional<TextFault> scanText(std::string_view text)
+{
+  struct Frame {
+    bool object;                                  // an object (else an array)
+    std::string token;                            // the current key, or the current index as text
+    std::size_t index = 0;                        // the current index (arrays)
+    std::vector<std::pair<std::string, std::size_t>> keys; // keys seen so far, with their offsets
+  };
+  std::vector<Frame> stack;
+  auto path = [&](const std::string* last) {
+    std::string p;
+    for (const Frame& f : stack)
+      if (!f.token.empty() || !f.object) {
+        p += '/';
+        p += shorten(f.token);
+      }
+    if (last) {
+      p += '/';
+      p += shorten(*last);
+    }
+    return p.empty() ? std::string("/") : p;
+  };
+  bool expectKey = false;
+  for (std::size_t pos = 0; pos < text.size();) {
+    const char c = text[pos];
+    if (c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == ':') {
+      ++pos;
+    } else if (c == '{' || c == '[') {
+      if (stack.size() >= kMaxNesting)
+        return TextFault{pos, path(nullptr), "objects and arrays nested deeper than " + std::to_string(kMaxNesting) +
+                                                 " levels (a scene needs at most 4)"};
+      stack.push_back(Frame{c == '{', c == '[' ? "0" : "", 0, {}});
+      expectKey = c == '{';
+      ++pos;
+    } else if (c == '}' || c == ']') {
+      if (stack.empty())
+        return std::nullopt;
+      stack.pop_back();
+      expectKey = false;
+      ++pos;
+    } else if (c == ',') {
+      if (stack.empty())
+        return std::nullopt;
+      Frame& top = stack.back();
+      if (top.object) {
+        expectKey = true;
+      } else {
+        ++top.index;
+        top.token = std::to_string(top.index);
+      }
+      ++pos;
+    } else if (c == '"') {
+      std::size_t end = pos + 1;
+      while (end < text.size() && text[end] != '"')
+        end += text[end] == '\\' ? 2 : 1;
+      if (end >= text.size())
+        return std::nullopt;
+      ++end;
+      if (expectKey && !stack.empty()) {
+        Frame& top = stack.back();
+        std::string key = decodeString(text.substr(pos, end - pos));
+        for (const auto& [seen, at] : top.keys)
+          if (seen == key) {
+            top.token.clear();
+            return TextFault{pos, path(&key), "the key '" + shorten(key) + "' is given twice in one object (first at " +
+                                                  lineColumn(text, at) + "); give each key once"};
+          }
+        top.keys.emplace_back(key, pos);
+        top.token = std::move(key);
+        expectKey = false;
+      }
+      pos = end;
+    } else {
+      // A number or a literal: check that a number fits in a double.
+      std::size_t end = pos;
+      while (end < text.size() && std::string_view(",]} \t\r\n:").find(text[end]) == std::string_view::npos)
+        ++end;
+      const std::string token(text.substr(pos, end - pos));
+      if (c == '-' || (c >= '0' && c <= '9')) {
+        const double v = std::strtod(token.c_str(), nullptr);
+        if (!std::isfinite(v))
+          return TextFault{pos, path(nullptr), "the number " + shorten(token) + " is too large for a double"};
+      }
+      if (end == pos)
+        return std::nullopt;
+      pos = end;
+    }
+  }
+  return std::nullopt;
 }
 
 // ---- Reading checked values -------------------------------------------------------------------------------
@@ -219,15 +405,18 @@ public:
     std::string str() const
     {
       std::string s;
-      for (const std::string& t : tokens)
-        s += "/" + t;
+      for (const std::string& t : tokens) {
+        s += '/'; // (appended in two steps: "/" + shorten(t) trips a false -Wrestrict in GCC 12)
+        s += shorten(t);
+      }
       return s.empty() ? "/" : s;
     }
   };
 
-  [[noreturn]] void fail(const Path& path, const std::string& message) const
+  // "FILE:LINE:COLUMN: /json/path" of a value, or of its nearest enclosing value that is in the text (the
+  // parent of a missing key, say).
+  std::string where(const Path& path) const
   {
-    // Point at the value's position in the text, or at its parent's when the value is missing.
     std::vector<std::string> tokens = path.tokens;
     std::size_t offset = Locator::npos;
     while (true) {
@@ -236,8 +425,13 @@ public:
         break;
       tokens.pop_back();
     }
-    const std::string where = offset != Locator::npos ? lineColumn(text_, offset) + ": " : "";
-    throw SceneError(file_ + ":" + where + path.str() + ": " + message);
+    const std::string place = offset != Locator::npos ? lineColumn(text_, offset) + ": " : "";
+    return file_ + ":" + place + path.str();
+  }
+
+  [[noreturn]] void fail(const Path& path, const std::string& message) const
+  {
+    throw SceneError(printable(where(path) + ": " + message));
   }
 
   const Json& object(const Json& j, const Path& path) const
@@ -252,7 +446,7 @@ public:
   {
     for (auto it = j.begin(); it != j.end(); ++it)
       if (std::find(known.begin(), known.end(), it.key()) == known.end())
-        fail(path / it.key(), "unknown key '" + it.key() + "'" + suggestion(it.key(), known) +
+        fail(path / it.key(), "unknown key '" + shorten(it.key()) + "'" + suggestion(it.key(), known) +
                                   "; known keys here: " + joinQuoted(known));
   }
 
@@ -276,6 +470,13 @@ public:
 
   int wholeNumber(const Json& j, const Path& path, std::int64_t lo, std::int64_t hi) const
   {
+    if (j.is_number_float()) {
+      // A whole number beyond 64 bits arrives as a double: say it is out of range rather than not whole.
+      const double v = j.get<double>();
+      if (std::isfinite(v) && v == std::floor(v))
+        fail(path, v > 0 ? "must be at most " + std::to_string(hi) + ", got " + j.dump()
+                         : "must be at least " + std::to_string(lo) + ", got " + j.dump());
+    }
     if (!j.is_number_integer())
       fail(path, "expected a whole number, got " + describe(j));
     if (j.is_number_unsigned() ? j.get<std::uint64_t>() > std::uint64_t(hi) : j.get<std::int64_t>() > hi)
@@ -373,7 +574,7 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
   else if (type == "glossy")
     m.type = MaterialType::Glossy;
   else
-    r.fail(path / "type", "unknown material type '" + type + "'" + suggestion(type, types) + "; known types: " +
+    r.fail(path / "type", "unknown material type '" + shorten(type) + "'" + suggestion(type, types) + "; known types: " +
                               joinQuoted(types));
 
   // Each type takes only the keys that mean something for it, so a misplaced key is caught, not ignored.
@@ -409,6 +610,15 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
 
 Scene parseScene(std::string_view text, const std::string& fileName)
 {
+  auto failAt = [&](std::size_t offset, const std::string& what) {
+    throw SceneError(printable(fileName + ":" + lineColumn(text, offset) + ": " + what));
+  };
+  // Faults of the text itself first: a NUL byte (nlohmann/json would take it as the end), an empty file.
+  if (const std::size_t nul = text.find('\0'); nul != std::string_view::npos)
+    failAt(nul, "the file contains a NUL byte: a scene file is JSON text");
+  if (text.find_first_not_of(" \t\r\n") == std::string_view::npos)
+    failAt(text.size(), "the file is empty: expected a JSON object such as {\"camera\": {...}, \"spheres\": [...]}");
+
   Json root;
   try {
     root = Json::parse(text.begin(), text.end());
@@ -418,9 +628,26 @@ Scene parseScene(std::string_view text, const std::string& fileName)
     std::string what = e.what();
     // nlohmann's message reads "[json.exception.parse_error.101] parse error at line 3, column 5: <detail>".
     const std::size_t colon = what.find(": ");
-    const std::string detail = colon != std::string::npos ? what.substr(colon + 2) : what;
-    throw SceneError(fileName + ":" + lineColumn(text, offset) + ": malformed JSON: " + detail);
+    std::string detail = colon != std::string::npos ? what.substr(colon + 2) : what;
+    // "...; last read: '<the token so far>'; expected ...": the token may be the rest of the file; shorten it.
+    if (const std::size_t read = detail.find("last read: '"); read != std::string::npos) {
+      const std::size_t start = read + 12;
+      std::size_t end = detail.find("'; expected", start);
+      if (end == std::string::npos)
+        end = detail.size() - 1;
+      if (end > start)
+        detail.replace(start, end - start, shorten(std::string_view(detail).substr(start, end - start)));
+    }
+    failAt(offset, "malformed JSON: " + detail);
+  } catch (const Json::exception& e) {
+    // A number too large for a double (out_of_range.406) comes without a position: find it in the text.
+    if (const std::optional<TextFault> fault = scanText(text))
+      failAt(fault->offset, fault->path + ": " + fault->message);
+    throw SceneError(printable(fileName + ": malformed JSON: " + e.what()));
   }
+  // What nlohmann/json accepts but a scene must not have: deep nesting, a key given twice, numbers out of range.
+  if (const std::optional<TextFault> fault = scanText(text))
+    failAt(fault->offset, fault->path + ": " + fault->message);
 
   const Reader r(text, fileName);
   const Path top;
@@ -464,7 +691,7 @@ Scene parseScene(std::string_view text, const std::string& fileName)
     const std::string name = r.string(r.required(js, p, "material"), p / "material");
     auto found = std::find(materialNames.begin(), materialNames.end(), name);
     if (found == materialNames.end())
-      r.fail(p / "material", "undefined material '" + name + "'" + suggestion(name, materialNames) +
+      r.fail(p / "material", "undefined material '" + shorten(name) + "'" + suggestion(name, materialNames) +
                                  (materialNames.empty() ? "; the scene defines no materials"
                                                         : "; defined: " + joinQuoted(materialNames)));
     s.material = int(found - materialNames.begin());
@@ -483,7 +710,7 @@ Scene parseScene(std::string_view text, const std::string& fileName)
       r.onlyKeys(jl, p, {"type", "position", "intensity"});
       const std::string type = r.string(r.required(jl, p, "type"), p / "type");
       if (type != "point")
-        r.fail(p / "type", "unknown light type '" + type + "'; known types: 'point' (for area lights, give a "
+        r.fail(p / "type", "unknown light type '" + shorten(type) + "'; known types: 'point' (for area lights, give a "
                                                             "sphere a material with \"emission\")");
       PointLight l;
       l.position = r.vec3(r.required(jl, p, "position"), p / "position");
@@ -494,21 +721,34 @@ Scene parseScene(std::string_view text, const std::string& fileName)
 
   for (std::size_t i = 0; i < materialNames.size(); ++i)
     if (!used.count(int(i)))
-      scene.warnings.push_back(fileName + ": /materials/" + materialNames[i] + ": material '" + materialNames[i] +
-                               "' is defined but no sphere uses it");
+      scene.warnings.push_back(printable(r.where(top / "materials" / materialNames[i]) + ": material '" +
+                                         materialNames[i] + "' is defined but no sphere uses it"));
   return scene;
 }
 
 Scene loadScene(const std::string& path)
 {
+  // Say plainly what is wrong with a path that is not a readable file, before JSON has a chance to.
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (fs::is_directory(status))
+    throw SceneError(printable(path + ": is a folder, not a scene file"));
   std::ifstream in(path, std::ios::binary);
   if (!in)
-    throw SceneError(path + ": cannot open the scene file: " + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
+    throw SceneError(printable(path + ": cannot open the scene file: " + std::strerror(errno)));
+  // Read at most kMaxSceneBytes (+1 to notice a larger file): /dev/zero or a runaway file cannot exhaust memory.
+  std::string text;
+  char buffer[65536];
+  while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {
+    text.append(buffer, std::size_t(in.gcount()));
+    if (text.size() > kMaxSceneBytes)
+      throw SceneError(printable(path + ": the scene file is larger than " + std::to_string(kMaxSceneBytes >> 20) +
+                                 " MiB; a scene file is a small JSON text"));
+  }
   if (in.bad())
-    throw SceneError(path + ": cannot read the scene file");
-  return parseScene(text.str(), path);
+    throw SceneError(printable(path + ": cannot read the scene file: " + std::strerror(errno)));
+  return parseScene(text, path);
 }
 
 } // namespace raylife
