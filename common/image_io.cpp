@@ -174,7 +174,7 @@ std::string writeFailure(const std::string& target, int error)
   struct stat info{};
   const bool exists = ::stat(target.c_str(), &info) == 0;
   return "cannot write " + target + ": " + std::strerror(error) +
-         (exists ? " (the existing " + target + " was left as it was)" : "");
+         (exists ? "; the existing " + target + " was left as it was" : "");
 }
 
 // Writes all of `bytes` to a new temporary file in `target`'s folder; returns its name. The name is hidden

@@ -198,6 +198,8 @@ extern "C" void onInterrupt(int)
     gCancelWrite.store(true); // the writer removes its temporary files; nothing is renamed into place
     return;
   }
+  static const char message[] = "\ninterrupted twice: stopped without writing\n";
+  [[maybe_unused]] const ssize_t ignored = ::write(STDERR_FILENO, message, sizeof message - 1);
   _exit(130);
 }
 
@@ -283,8 +285,8 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
     const int width = options.width ? options.width : scene.camera.width;
     const int height = options.height ? options.height : scene.camera.height;
     if (std::int64_t(width) * height > kMaxPixels) {
-      std::cerr << name << ": an image of " << width << "x" << height << " pixels is larger than the " << kMaxPixels
-                << " pixels raylife allows\n";
+      std::cerr << name << ": --width/--height: an image of " << width << "x" << height << " pixels is larger than the "
+                << kMaxPixels << " pixels raylife allows\n";
       return 2;
     }
     std::vector<std::string> outputs = options.outputs;
@@ -365,13 +367,13 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
   } catch (const SceneError& e) {
     std::cerr << name << ": " << e.what() << "\n";
   } catch (const ImageIoError& e) {
-    std::cerr << name << ": " << e.what() << " (nothing was written)\n";
+    std::cerr << name << ": " << e.what() << "; nothing was written\n";
   } catch (const std::filesystem::filesystem_error& e) {
     std::cerr << name << ": " << e.what() << "\n";
   } catch (const std::bad_alloc&) {
-    std::cerr << name << ": out of memory (nothing was written)\n";
+    std::cerr << name << ": out of memory; nothing was written\n";
   } catch (const std::exception& e) {
-    std::cerr << name << ": internal error: " << e.what() << " (nothing was written; please report this)\n";
+    std::cerr << name << ": internal error: " << e.what() << "; nothing was written (please report this)\n";
   }
   return 1;
 }

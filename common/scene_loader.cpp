@@ -481,7 +481,8 @@ public:
       fail(path, "expected a whole number, got " + describe(j));
     if (j.is_number_unsigned() ? j.get<std::uint64_t>() > std::uint64_t(hi) : j.get<std::int64_t>() > hi)
       fail(path, "must be at most " + std::to_string(hi) + ", got " + j.dump());
-    if (!j.is_number_unsigned() && j.get<std::int64_t>() < lo)
+    // (nlohmann/json stores every non-negative whole number as unsigned: 0 must be checked on that path too.)
+    if (j.is_number_unsigned() ? lo > 0 && j.get<std::uint64_t>() < std::uint64_t(lo) : j.get<std::int64_t>() < lo)
       fail(path, "must be at least " + std::to_string(lo) + ", got " + j.dump());
     return int(j.get<std::int64_t>());
   }
@@ -554,7 +555,7 @@ void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& ca
                                " pixels is larger than the " + std::to_string(kMaxPixels) + " pixels raylife allows");
   auto basis = makeCameraBasis(cam.eye, cam.focal, cam.up);
   if (auto* error = std::get_if<BasisError>(&basis))
-    r.fail(path / "up", error->message);
+    r.fail(path / (cam.eye == cam.focal ? "focal" : "up"), error->message); // blame the vector at fault
   cam.basis = std::get<CameraBasis>(basis);
 }
 
@@ -623,8 +624,22 @@ Scene parseScene(std::string_view text, const std::string& fileName)
   try {
     root = Json::parse(text.begin(), text.end());
   } catch (const Json::parse_error& e) {
-    // e.byte is one past the offending character (1-based); report the line and column of that character.
-    const std::size_t offset = e.byte > 0 ? e.byte - 1 : 0;
+    // e.byte is one past the offending character (1-based); report the line and column of that character, or
+    // of the start of the offending string when it is a string (nlohmann stops at its closing quote).
+    std::size_t offset = std::min(e.byte > 0 ? e.byte - 1 : 0, text.size());
+    if (offset < text.size() && offset > 0 && text[offset] == '"' &&
+        std::string_view(e.what()).find("unexpected string literal") != std::string_view::npos) {
+      std::size_t open = offset - 1;
+      auto escaped = [&](std::size_t at) { // preceded by an odd number of backslashes
+        std::size_t n = 0;
+        while (at > n && text[at - n - 1] == '\\')
+          ++n;
+        return n % 2 == 1;
+      };
+      while (open > 0 && !(text[open] == '"' && !escaped(open)))
+        --open;
+      offset = open;
+    }
     std::string what = e.what();
     // nlohmann's message reads "[json.exception.parse_error.101] parse error at line 3, column 5: <detail>".
     const std::size_t colon = what.find(": ");
