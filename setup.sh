@@ -16,7 +16,7 @@ packages=(
 )
 for arg in "$@"; do
   case "$arg" in
-    --fuzz) packages+=(clang libclang-rt-14-dev) ;;
+    --fuzz) packages+=(clang libclang-rt-14-dev libomp-14-dev) ;; # libomp: OpenMP for a clang build
     --browser) packages+=(chromium) ;;
     *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser)" >&2; exit 2 ;;
   esac

@@ -5,7 +5,7 @@
 # build-fuzz/), seeds it from scenes/, scenes/stress/ and tests/fuzz/regressions/, keeps the growing corpus in
 # BUILD_DIR/corpus/ between runs, and leaves any crashing or hanging input in BUILD_DIR/crashes/.
 # Exit status: 0 nothing found, 1 the fuzzer found a fault (copy the input into tests/fuzz/regressions/ once fixed),
-# 2 bad usage. Needs clang and libclang-rt-14-dev (./setup.sh --fuzz).
+# 2 bad usage. Needs clang, libclang-rt-14-dev and libomp-14-dev (./setup.sh --fuzz).
 set -euo pipefail
 
 seconds=${1:-60}
@@ -17,8 +17,9 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 build=${2:-$root/build-fuzz}
 
 flags="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
+mkdir -p "$build"
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRAYLIFE_FUZZ=ON \
-  -DCMAKE_CXX_FLAGS="$flags" >"$build.configure.log" 2>&1 || { cat "$build.configure.log" >&2; exit 1; }
+  -DCMAKE_CXX_FLAGS="$flags" >"$build/configure.log" 2>&1 || { cat "$build/configure.log" >&2; exit 1; }
 cmake --build "$build" --target fuzz_scene -j2
 
 corpus="$build/corpus"
