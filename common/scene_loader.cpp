@@ -13,8 +13,8 @@
 #include <filesystem>
 #include <fstream>
 #include <optional>
-#include <set>
 #include <sstream>
+#include <unordered_map>
 
 namespace raylife {
 
@@ -257,8 +257,13 @@ std::size_t editDistance(std::string_view a, std::string_view b)
 std::string suggestion(std::string_view word, const std::vector<std::string>& candidates)
 {
   std::string best;
+  constexpr std::size_t kLongest = 64; // no name is that long: beyond it, a suggestion would only cost time
+  if (word.size() > kLongest)
+    return "";
   std::size_t bestDistance = std::max<std::size_t>(2, word.size() / 3) + 1;
   for (const std::string& c : candidates) {
+    if (c.size() > kLongest)
+      continue;
     const std::size_t d = editDistance(word, c);
     if (d < bestDistance) {
       bestDistance = d;
@@ -302,7 +307,7 @@ std::optional<TextFault> scanText(std::string_view text)
     bool object;                                  // an object (else an array)
     std::string token;                            // the current key, or the current index as text
     std::size_t index = 0;                        // the current index (arrays)
-    std::vector<std::pair<std::string, std::size_t>> keys; // keys seen so far, with their offsets
+    std::unordered_map<std::string, std::size_t> keys; // keys seen so far, with their offsets
   };
   std::vector<Frame> stack;
   auto path = [&](const std::string* last) {
@@ -357,13 +362,12 @@ std::optional<TextFault> scanText(std::string_view text)
       if (expectKey && !stack.empty()) {
         Frame& top = stack.back();
         std::string key = decodeString(text.substr(pos, end - pos));
-        for (const auto& [seen, at] : top.keys)
-          if (seen == key) {
-            top.token.clear();
-            return TextFault{pos, path(&key), "the key '" + shorten(key) + "' is given twice in one object (first at " +
-                                                  lineColumn(text, at) + "); give each key once"};
-          }
-        top.keys.emplace_back(key, pos);
+        if (const auto seen = top.keys.find(key); seen != top.keys.end()) {
+          top.token.clear();
+          return TextFault{pos, path(&key), "the key '" + shorten(key) + "' is given twice in one object (first at " +
+                                                lineColumn(text, seen->second) + "); give each key once"};
+        }
+        top.keys.emplace(key, pos);
         top.token = std::move(key);
         expectKey = false;
       }
@@ -693,7 +697,10 @@ Scene parseScene(std::string_view text, const std::string& fileName)
     r.fail(top / "spheres", "expected an array of spheres, got " + Reader::describe(spheres));
   if (spheres.empty())
     r.fail(top / "spheres", "the scene is empty: give at least one sphere");
-  std::set<int> used;
+  std::unordered_map<std::string, int> materialIndex; // name -> index, so a large scene loads in linear time
+  for (std::size_t i = 0; i < materialNames.size(); ++i)
+    materialIndex.emplace(materialNames[i], int(i));
+  std::vector<bool> used(materialNames.size(), false);
   for (std::size_t i = 0; i < spheres.size(); ++i) {
     const Path p = top / "spheres" / i;
     const Json& js = r.object(spheres[i], p);
@@ -704,13 +711,13 @@ Scene parseScene(std::string_view text, const std::string& fileName)
     if (!(s.radius > 0))
       r.fail(p / "radius", "the radius must be greater than 0, got " + js["radius"].dump());
     const std::string name = r.string(r.required(js, p, "material"), p / "material");
-    auto found = std::find(materialNames.begin(), materialNames.end(), name);
-    if (found == materialNames.end())
+    const auto found = materialIndex.find(name);
+    if (found == materialIndex.end())
       r.fail(p / "material", "undefined material '" + shorten(name) + "'" + suggestion(name, materialNames) +
                                  (materialNames.empty() ? "; the scene defines no materials"
                                                         : "; defined: " + joinQuoted(materialNames)));
-    s.material = int(found - materialNames.begin());
-    used.insert(s.material);
+    s.material = found->second;
+    used[std::size_t(s.material)] = true;
     scene.spheres.push_back(s);
   }
 
@@ -734,10 +741,16 @@ Scene parseScene(std::string_view text, const std::string& fileName)
     }
   }
 
+  // An unused material is only a warning: one per material for the first few, then one line for the rest.
+  constexpr std::size_t kMaxUnusedWarnings = 5;
+  std::size_t unused = 0;
   for (std::size_t i = 0; i < materialNames.size(); ++i)
-    if (!used.count(int(i)))
+    if (!used[i] && ++unused <= kMaxUnusedWarnings)
       scene.warnings.push_back(printable(r.where(top / "materials" / materialNames[i]) + ": material '" +
-                                         materialNames[i] + "' is defined but no sphere uses it"));
+                                         shorten(materialNames[i]) + "' is defined but no sphere uses it"));
+  if (unused > kMaxUnusedWarnings)
+    scene.warnings.push_back(printable(fileName + ": /materials: " + std::to_string(unused - kMaxUnusedWarnings) +
+                                       " more materials are defined but no sphere uses them"));
   return scene;
 }
 
