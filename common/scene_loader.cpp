@@ -37,6 +37,9 @@ std::string decodeString(std::string_view quoted)
   }
 }
 
+// 3 when `text` starts with a UTF-8 byte order mark (which nlohmann/json skips), else 0.
+std::size_t byteOrderMarkLength(std::string_view text) { return text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0; }
+
 // ---- Where in the text a JSON path points, for line:column in messages --------------------------------------
 // nlohmann/json keeps no source positions, so this small scanner walks the (already valid) text to the value
 // a path names. It returns npos if it cannot follow the path; messages then carry the path alone.
@@ -46,7 +49,7 @@ public:
 
   std::size_t find(const std::vector<std::string>& path) const
   {
-    std::size_t pos = skipSpace(0);
+    std::size_t pos = skipSpace(byteOrderMarkLength(text_));
     for (const std::string& token : path) {
       if (pos >= text_.size())
         return npos;
@@ -324,7 +327,7 @@ std::optional<TextFault> scanText(std::string_view text)
     return p.empty() ? std::string("/") : p;
   };
   bool expectKey = false;
-  for (std::size_t pos = 0; pos < text.size();) {
+  for (std::size_t pos = byteOrderMarkLength(text); pos < text.size();) {
     const char c = text[pos];
     if (c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == ':') {
       ++pos;

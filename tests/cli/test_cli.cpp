@@ -129,6 +129,12 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
       {"a key given twice", withFault(R"("radius": 1,)", R"("radius": 1, "radius": 2,)"),
        "scene.json:11:41: /spheres/1/radius: the key 'radius' is given twice in one object (first at 11:28); give "
        "each key once"},
+      {"a key given twice in a file with a byte order mark",
+       "\xEF\xBB\xBF" + withFault(R"("radius": 1,)", R"("radius": 1, "radius": 2,)"),
+       "scene.json:11:41: /spheres/1/radius: the key 'radius' is given twice in one object (first at 11:28); give "
+       "each key once"},
+      {"a negative radius in a file with a byte order mark", "\xEF\xBB\xBF" + withFault(R"("radius": 1,)", R"("radius": -1,)"),
+       "scene.json:11:38: /spheres/1/radius: the radius must be greater than 0, got -1"},
       {"an unknown material type", withFault(R"("type": "glass")", R"("type": "glas")"),
        "scene.json:7:24: /materials/glass/type: unknown material type 'glas' (did you mean 'glass'?); known types: "
        "'diffuse', 'mirror', 'glass', 'glossy'"},
