@@ -652,15 +652,16 @@ Scene parseScene(std::string_view text, const std::string& fileName)
     const std::size_t colon = what.find(": ");
     std::string detail = colon != std::string::npos ? what.substr(colon + 2) : what;
     // "...; last read: '<the token so far>'; expected ...": the token may be the rest of the file; shorten it.
+    // The token may itself hold "'; expected": the real clause is the last one, and short ("'; expected '}'").
     if (const std::size_t read = detail.find("last read: '"); read != std::string::npos) {
       const std::size_t start = read + 12;
-      std::size_t end = detail.find("'; expected", start);
-      if (end == std::string::npos)
+      std::size_t end = detail.rfind("'; expected ");
+      if (end == std::string::npos || end < start || detail.size() - end > 40)
         end = detail.size() - 1;
       if (end > start)
         detail.replace(start, end - start, shorten(std::string_view(detail).substr(start, end - start)));
     }
-    failAt(offset, "malformed JSON: " + detail);
+    failAt(offset, "malformed JSON: " + shorten(detail, 400)); // (and never a page long, whatever nlohmann says)
   } catch (const Json::exception& e) {
     // A number too large for a double (out_of_range.406) comes without a position: find it in the text.
     if (const std::optional<TextFault> fault = scanText(text))
