@@ -17,7 +17,7 @@ packages=(
 )
 for arg in "$@"; do
   case "$arg" in
-    --fuzz) packages+=(clang libclang-rt-14-dev) ;;
+    --fuzz) packages+=(clang libclang-rt-14-dev libomp-14-dev) ;; # libomp: OpenMP for a clang build
     --browser) packages+=(chromium) ;;
     --bench) packages+=(gnuplot-nox fonts-dejavu-core) ;;
     *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench)" >&2; exit 2 ;;

@@ -168,20 +168,46 @@ std::vector<unsigned char> encodeImage(const Image& image, const std::string& pa
 
 namespace {
 
-// Writes all of `bytes` to a new temporary file beside `target`; returns its name.
-std::string writeTemporary(const std::string& target, const std::vector<unsigned char>& bytes)
+// Why writing `target` failed, and that an existing file of that name was not touched.
+std::string writeFailure(const std::string& target, int error)
 {
-  std::string name = target + ".tmp.XXXXXX";
+  struct stat info{};
+  const bool exists = ::stat(target.c_str(), &info) == 0;
+  return "cannot write " + target + ": " + std::strerror(error) +
+         (exists ? "; the existing " + target + " was left as it was" : "");
+}
+
+// Writes all of `bytes` to a new temporary file in `target`'s folder; returns its name. The name is hidden
+// (".NAME.tmp.XXXXXX"), and short enough to be valid whenever the target's name is.
+std::string writeTemporary(const std::string& target, const std::vector<unsigned char>& bytes,
+                           const std::atomic<bool>* cancel)
+{
+  const std::size_t slash = target.rfind('/');
+  const std::string folder = slash == std::string::npos ? "" : target.substr(0, slash + 1);
+  std::string base = slash == std::string::npos ? target : target.substr(slash + 1);
+  if (base.size() > 200)
+    base.resize(200);
+  std::string name = folder + "." + base + ".tmp.XXXXXX";
   const int fd = mkstemp(name.data());
   if (fd < 0)
-    throw ImageIoError("cannot write " + target + ": " + std::strerror(errno));
-  std::size_t done = 0;
+    throw ImageIoError(writeFailure(target, errno));
+  auto abandon = [&](int error) {
+    ::close(fd);
+    ::unlink(name.c_str());
+    if (error == 0)
+      throw WriteCancelled("writing " + target + " was cancelled");
+    throw ImageIoError(writeFailure(target, error));
+  };
   // RAYLIFE_FAIL_WRITE_AFTER=N (tests only) makes every write fail with ENOSPC after N bytes, as a full disk would.
   std::size_t failAfter = std::size_t(-1);
   if (const char* inject = std::getenv("RAYLIFE_FAIL_WRITE_AFTER"))
     failAfter = std::size_t(std::strtoull(inject, nullptr, 10));
+  constexpr std::size_t kChunk = std::size_t(1) << 20;
+  std::size_t done = 0;
   while (done < bytes.size()) {
-    std::size_t chunk = bytes.size() - done;
+    if (cancel && cancel->load())
+      abandon(0);
+    std::size_t chunk = std::min(kChunk, bytes.size() - done);
     ssize_t wrote;
     if (done + chunk > failAfter) {
       chunk = failAfter > done ? failAfter - done : 0;
@@ -192,17 +218,17 @@ std::string writeTemporary(const std::string& target, const std::vector<unsigned
     if (wrote < 0) {
       if (errno == EINTR)
         continue;
-      const int saved = errno;
-      ::close(fd);
-      ::unlink(name.c_str());
-      throw ImageIoError("cannot write " + target + ": " + std::strerror(saved));
+      abandon(errno);
     }
     done += std::size_t(wrote);
   }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+  // fsync: a full disk or a failing device may report only now; close may too (on NFS, say).
+  if (::fsync(fd) != 0)
+    abandon(errno);
+  if (::close(fd) != 0) {
     const int saved = errno;
     ::unlink(name.c_str());
-    throw ImageIoError("cannot write " + target + ": " + std::strerror(saved));
+    throw ImageIoError(writeFailure(target, saved));
   }
   ::chmod(name.c_str(), 0644); // mkstemp creates 0600; an image is for everyone to read
   return name;
@@ -210,23 +236,28 @@ std::string writeTemporary(const std::string& target, const std::vector<unsigned
 
 } // namespace
 
-void writeFilesAtomically(const std::vector<std::pair<std::string, std::vector<unsigned char>>>& files)
+void writeFilesAtomically(const std::vector<std::pair<std::string, std::vector<unsigned char>>>& files,
+                          const std::atomic<bool>* cancel)
 {
   std::vector<std::string> temporaries;
   try {
     for (const auto& [target, bytes] : files)
-      temporaries.push_back(writeTemporary(target, bytes));
+      temporaries.push_back(writeTemporary(target, bytes, cancel));
+    if (cancel && cancel->load())
+      throw WriteCancelled("writing was cancelled");
   } catch (...) {
     for (const std::string& t : temporaries)
       ::unlink(t.c_str());
     throw;
   }
+  // Rename every file into place. A rename within one folder fails only in odd cases (the target became a
+  // folder, say); then the files not yet renamed are removed and the ones already in place stay complete.
   for (std::size_t i = 0; i < files.size(); ++i) {
     if (std::rename(temporaries[i].c_str(), files[i].first.c_str()) != 0) {
       const int saved = errno;
       for (std::size_t j = i; j < temporaries.size(); ++j)
         ::unlink(temporaries[j].c_str());
-      throw ImageIoError("cannot write " + files[i].first + ": " + std::strerror(saved));
+      throw ImageIoError(writeFailure(files[i].first, saved));
     }
   }
 }

@@ -4,6 +4,7 @@
 
 #include "film.h"
 
+#include <atomic>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -41,10 +42,22 @@ bool isImagePath(const std::string& path);
 /// Encodes `image` in the format `path`'s extension names (.png or .pfm). @throws ImageIoError otherwise.
 std::vector<unsigned char> encodeImage(const Image& image, const std::string& path);
 
-/// Writes several files all or nothing: each is first written in full to a temporary file beside its target,
-/// and only when all have been written are they renamed into place (rename is atomic on one file system).
-/// On any failure every temporary file is removed, no target is touched, and ImageIoError says what failed.
-void writeFilesAtomically(const std::vector<std::pair<std::string, std::vector<unsigned char>>>& files);
+/// writeFilesAtomically was cancelled through its `cancel` flag: nothing was written.
+class WriteCancelled : public ImageIoError {
+public:
+  using ImageIoError::ImageIoError;
+};
+
+/// Writes several files all or nothing: each is first written in full (and synced) to a temporary file in its
+/// target's folder, and only when all have been written are they renamed into place (rename is atomic on one
+/// file system). On any failure every temporary file is removed, no target is touched, and ImageIoError says
+/// what failed and that an existing file was left as it was.
+/// @param cancel if not null, checked between chunks of 1 MiB and before the renames: once it is true, the
+///               temporary files are removed and WriteCancelled is thrown. It may be set from a signal handler.
+/// Tests may set the environment variable RAYLIFE_FAIL_WRITE_AFTER=N to make every write fail with ENOSPC
+/// after N bytes of a file, as a full disk would.
+void writeFilesAtomically(const std::vector<std::pair<std::string, std::vector<unsigned char>>>& files,
+                          const std::atomic<bool>* cancel = nullptr);
 
 /// Writes one image (PNG or PFM by extension) atomically. @throws ImageIoError.
 void writeImage(const Image& image, const std::string& path);

@@ -2,6 +2,7 @@
 
 #include "scene.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -34,6 +35,41 @@ double parsePositive(const std::string& flag, const std::string& text)
   return v;
 }
 
+bool endsWith(const std::string& s, const std::string& suffix)
+{
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+// The flag nearest to `arg` by edit distance (ignoring an "=value" tail), if it is close: for "did you mean".
+std::string nearestFlag(const std::string& arg)
+{
+  const std::string word = arg.substr(0, arg.find('='));
+  static const char* const flags[] = {"--help", "--output", "--variance", "--stats", "--width", "--height", "--spp",
+                                      "--time", "--seed", "--threads", "--max-depth", "--quiet"};
+  std::string best;
+  std::size_t bestDistance = 3;
+  for (const char* flag : flags) {
+    const std::string f = flag;
+    std::vector<std::size_t> row(f.size() + 1);
+    for (std::size_t j = 0; j <= f.size(); ++j)
+      row[j] = j;
+    for (std::size_t i = 1; i <= word.size(); ++i) {
+      std::size_t diagonal = row[0];
+      row[0] = i;
+      for (std::size_t j = 1; j <= f.size(); ++j) {
+        const std::size_t above = row[j];
+        row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (word[i - 1] == f[j - 1] ? 0 : 1)});
+        diagonal = above;
+      }
+    }
+    if (row[f.size()] < bestDistance) {
+      bestDistance = row[f.size()];
+      best = f;
+    }
+  }
+  return best;
+}
+
 } // namespace
 
 RenderOptions parseCommandLine(int argc, const char* const* argv)
@@ -50,13 +86,19 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
       o.help = true;
     } else if (arg == "-o" || arg == "--output") {
       const std::string path = value();
+      if (!endsWith(path, ".png") && !endsWith(path, ".pfm"))
+        throw UsageError(arg + " '" + path + "': unknown image format (the output must end in .png or .pfm)");
       if (o.outputs.size() == 2)
         throw UsageError("-o may be given at most twice (a .png and a .pfm)");
       o.outputs.push_back(path);
     } else if (arg == "--variance") {
       o.variancePath = value();
+      if (!endsWith(o.variancePath, ".pfm"))
+        throw UsageError("--variance '" + o.variancePath + "': the variance image must be a .pfm file");
     } else if (arg == "--stats") {
       o.statsPath = value();
+      if (o.statsPath.empty())
+        throw UsageError("--stats expects a file name");
     } else if (arg == "--width") {
       o.width = int(parseInteger(arg, value(), 1, kMaxPixels));
     } else if (arg == "--height") {
@@ -74,7 +116,9 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
     } else if (arg == "--quiet" || arg == "-q") {
       o.quiet = true;
     } else if (arg.size() > 1 && arg[0] == '-') {
-      throw UsageError("unknown option '" + arg + "' (see --help)");
+      const std::string near = nearestFlag(arg);
+      throw UsageError("unknown option '" + arg + "'" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                       "; see --help");
     } else {
       if (!o.scenePath.empty())
         throw UsageError("more than one scene given: '" + o.scenePath + "' and '" + arg + "'");
@@ -83,6 +127,15 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
   }
   if (o.spp && o.seconds)
     throw UsageError("give --spp or --time, not both");
+  // Every file written must be a different file: two renames onto one name would silently keep only one.
+  std::vector<std::string> written = o.outputs;
+  for (const std::string* extra : {&o.variancePath, &o.statsPath})
+    if (!extra->empty())
+      written.push_back(*extra);
+  for (std::size_t i = 0; i < written.size(); ++i)
+    for (std::size_t j = i + 1; j < written.size(); ++j)
+      if (written[i] == written[j])
+        throw UsageError("'" + written[i] + "' is given as two outputs; each output needs its own file");
   return o;
 }
 

@@ -33,8 +33,9 @@ public:
   using std::runtime_error::runtime_error;
 };
 
-/// Parses argv[1..argc). @throws UsageError on an unknown flag, a missing or malformed value, a value out of
-/// range, more than one scene, more than two outputs, or both --spp and --time.
+/// Parses argv[1..argc). @throws UsageError on an unknown flag (suggesting the nearest known one), a missing or
+/// malformed value, a value out of range, more than one scene, more than two outputs, an output that is not .png
+/// or .pfm (.pfm for --variance), one file given as two outputs, or both --spp and --time.
 RenderOptions parseCommandLine(int argc, const char* const* argv);
 
 /// The --help text for a binary called `binary` whose default scene is `defaultScene`.

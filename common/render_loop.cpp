@@ -8,12 +8,14 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <cstring>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 
+#include <signal.h>
 #include <unistd.h>
 
 #ifndef RAYLIFE_SCENE_DIR
@@ -217,20 +219,62 @@ std::string sceneDirectory() { return RAYLIFE_SCENE_DIR; }
 
 namespace {
 
-// Ctrl-C once: finish the pass in flight, write what there is. Twice: stop at once, write nothing.
-std::atomic<bool> gStopRequested{false};
+// Ctrl-C (or SIGTERM) once: finish the pass in flight, write what there is, exit 130. Twice: stop at once and
+// write nothing. The handler touches only lock-free atomics and _exit, which are async-signal-safe.
+std::atomic<int> gSignals{0};            // SIGINT and SIGTERM received since the handlers were installed
+std::atomic<bool> gStopRequested{false}; // the render loop stops after the pass in flight
+std::atomic<bool> gWriting{false};       // the images are being written: a second signal cancels the write
+std::atomic<bool> gCancelWrite{false};   // writeFilesAtomically removes its temporary files and gives up
+static_assert(std::atomic<int>::is_always_lock_free && std::atomic<bool>::is_always_lock_free,
+              "the signal handler may only touch lock-free atomics");
 
 extern "C" void onInterrupt(int)
 {
-  if (gStopRequested.exchange(true))
-    _exit(130);
+  if (gSignals.fetch_add(1) == 0) {
+    gStopRequested.store(true);
+    return;
+  }
+  if (gWriting.load()) {
+    gCancelWrite.store(true); // the writer removes its temporary files; nothing is renamed into place
+    return;
+  }
+  static const char message[] = "\ninterrupted twice: stopped without writing\n";
+  [[maybe_unused]] const ssize_t ignored = ::write(STDERR_FILENO, message, sizeof message - 1);
+  _exit(130);
 }
 
-// Checks, before any work, that each output can be written: a known extension and a writable folder.
-void checkOutput(const std::string& path)
+// Installs onInterrupt for SIGINT and SIGTERM while it lives; puts the previous handlers back after.
+class InterruptHandlers {
+public:
+  InterruptHandlers()
+  {
+    gSignals = 0;
+    gStopRequested = false;
+    gWriting = false;
+    gCancelWrite = false;
+    struct sigaction action{};
+    action.sa_handler = onInterrupt;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESTART; // a signal must not make a write() or read() fail with EINTR
+    sigaction(SIGINT, &action, &previousInt_);
+    sigaction(SIGTERM, &action, &previousTerm_);
+  }
+  ~InterruptHandlers()
+  {
+    sigaction(SIGINT, &previousInt_, nullptr);
+    sigaction(SIGTERM, &previousTerm_, nullptr);
+  }
+  InterruptHandlers(const InterruptHandlers&) = delete;
+  InterruptHandlers& operator=(const InterruptHandlers&) = delete;
+
+private:
+  struct sigaction previousInt_{};
+  struct sigaction previousTerm_{};
+};
+
+// Checks, before any work, that a file can be written: its folder exists and is writable, and it is no folder.
+void checkWritable(const std::string& path)
 {
-  if (!isImagePath(path))
-    throw ImageIoError(path + ": unknown image format (the output must end in .png or .pfm)");
   namespace fs = std::filesystem;
   fs::path folder = fs::path(path).parent_path();
   if (folder.empty())
@@ -239,7 +283,8 @@ void checkOutput(const std::string& path)
   if (!fs::is_directory(folder, ec))
     throw ImageIoError("cannot write " + path + ": the folder " + folder.string() + " does not exist");
   if (::access(folder.c_str(), W_OK) != 0)
-    throw ImageIoError("cannot write " + path + ": the folder " + folder.string() + " is not writable");
+    throw ImageIoError("cannot write " + path + ": the folder " + folder.string() + " is not writable (" +
+                       std::strerror(errno) + ")");
   if (fs::is_directory(path, ec))
     throw ImageIoError("cannot write " + path + ": it is a folder");
 }
@@ -285,8 +330,8 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     const int width = options.width ? options.width : scene.camera.width;
     const int height = options.height ? options.height : scene.camera.height;
     if (std::int64_t(width) * height > kMaxPixels) {
-      std::cerr << name << ": an image of " << width << "x" << height << " pixels is larger than the " << kMaxPixels
-                << " pixels raylife allows\n";
+      std::cerr << name << ": --width/--height: an image of " << width << "x" << height << " pixels is larger than the "
+                << kMaxPixels << " pixels raylife allows\n";
       return 2;
     }
     std::vector<std::string> outputs = options.outputs;
@@ -294,13 +339,13 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
       std::filesystem::create_directories("out");
       outputs.push_back("out/" + name + ".png");
     }
+    // (parseCommandLine has checked the extensions.)
     for (const std::string& path : outputs)
-      checkOutput(path);
-    if (!options.variancePath.empty()) {
-      if (options.variancePath.size() < 4 || options.variancePath.substr(options.variancePath.size() - 4) != ".pfm")
-        throw ImageIoError(options.variancePath + ": the variance image must be a .pfm file");
-      checkOutput(options.variancePath);
-    }
+      checkWritable(path);
+    if (!options.variancePath.empty())
+      checkWritable(options.variancePath);
+    if (!options.statsPath.empty())
+      checkWritable(options.statsPath);
     if (const std::string ignored = describeIgnored(scene, chapter.uses, options.maxDepth.has_value());
         !ignored.empty() && !options.quiet)
       std::cerr << name << ": ignores in " << scene.fileName << ": " << ignored << "\n";
@@ -317,10 +362,8 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     settings.progress = !options.quiet && ::isatty(STDERR_FILENO);
     settings.stop = &gStopRequested;
 
-    // Render, with Ctrl-C and SIGTERM turned into "stop after this pass".
-    gStopRequested = false;
-    auto previousInt = std::signal(SIGINT, onInterrupt);
-    auto previousTerm = std::signal(SIGTERM, onInterrupt);
+    // Render, with Ctrl-C and SIGTERM turned into "stop after this pass" (until the images are written).
+    const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
     const TraceFunction trace = makeTrace(scene);
     RenderResult result = render(scene, camera, settings, trace);
@@ -335,8 +378,6 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
       result.badSamples += beside->badSamples;
       result.interrupted = result.interrupted || beside->interrupted;
     }
-    std::signal(SIGINT, previousInt);
-    std::signal(SIGTERM, previousTerm);
 
     // Write every image, all or nothing.
     std::vector<std::pair<std::string, std::vector<unsigned char>>> files;
@@ -357,7 +398,14 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
       const std::string text = json.str();
       files.emplace_back(options.statsPath, std::vector<unsigned char>(text.begin(), text.end()));
     }
-    writeFilesAtomically(files);
+    gWriting = true; // from here a second signal cancels the write (before, it _exits: nothing to clean up)
+    try {
+      writeFilesAtomically(files, &gCancelWrite);
+    } catch (const WriteCancelled&) {
+      std::cerr << name << ": interrupted twice: stopped without writing\n";
+      return 130;
+    }
+    gWriting = false;
 
     if (!options.quiet) {
       char line[256];
@@ -378,11 +426,13 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
   } catch (const SceneError& e) {
     std::cerr << name << ": " << e.what() << "\n";
   } catch (const ImageIoError& e) {
-    std::cerr << name << ": " << e.what() << " (nothing was written)\n";
+    std::cerr << name << ": " << e.what() << "; nothing was written\n";
   } catch (const std::filesystem::filesystem_error& e) {
     std::cerr << name << ": " << e.what() << "\n";
   } catch (const std::bad_alloc&) {
-    std::cerr << name << ": out of memory\n";
+    std::cerr << name << ": out of memory; nothing was written\n";
+  } catch (const std::exception& e) {
+    std::cerr << name << ": internal error: " << e.what() << "; nothing was written (please report this)\n";
   }
   return 1;
 }

@@ -100,7 +100,8 @@ public:
   using std::runtime_error::runtime_error;
 };
 
-/// Reads and validates a scene file. @throws SceneError naming the file, the place and the fault.
+/// Reads and validates a scene file (a regular file of at most 64 MiB). @throws SceneError naming the file, the
+/// place and the fault; the message is one printable line.
 Scene loadScene(const std::string& path);
 
 /// Parses and validates scene text; `fileName` is used only in messages. @throws SceneError.

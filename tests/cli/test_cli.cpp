@@ -1,0 +1,497 @@
+// The command line of a chapter (DESIGN.md section 4; issues 2 and 9): every bad input ends the program with
+// one message that names the file, the place in it and the fault, the documented exit status (2 for a bad
+// command line, 1 for bad input or a failed write, 130 when interrupted), and no file written or half written.
+#include "process.h"
+
+#include "image_io.h"
+
+#include <catch2/catch.hpp>
+
+#include <cerrno>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <regex>
+#include <thread>
+
+#include <sched.h>
+#include <sys/mount.h>
+
+using namespace raylife::test;
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::string kStep04 = STEP04;
+
+// A small valid scene; each bad input below is this text with one fault put in.
+const std::string kScene = R"({
+  "camera": { "eye": [0, 1, 6], "focal": [0, 1, 0], "up": [0, 1, 0], "vfov": 40, "width": 64, "height": 48 },
+  "background": [0.5, 0.7, 0.9],
+  "ambient": [0.1, 0.1, 0.1],
+  "materials": {
+    "red":   { "type": "diffuse", "color": [0.8, 0.2, 0.2] },
+    "glass": { "type": "glass", "color": [1, 1, 1], "ior": 1.5 }
+  },
+  "spheres": [
+    { "center": [0, -100, 0], "radius": 100, "material": "red" },
+    { "center": [0, 1, 0], "radius": 1, "material": "glass" }
+  ],
+  "lights": [ { "type": "point", "position": [5, 8, 5], "intensity": [50, 50, 50] } ]
+}
+)";
+
+// kScene with the first `from` replaced by `to` (which must be there: a test of a fault that is not put in
+// proves nothing).
+std::string withFault(const std::string& from, const std::string& to)
+{
+  const std::size_t at = kScene.find(from);
+  REQUIRE(at != std::string::npos);
+  std::string text = kScene;
+  text.replace(at, from.size(), to);
+  return text;
+}
+
+struct BadScene {
+  const char* what;     // the fault
+  std::string text;     // the scene file
+  const char* message;  // the whole of standard error after "step04_shadows: "
+};
+
+// Runs step04 on `text` (as scene.json) with -o out.png; checks status 1, exactly `message` on one line, and
+// that the folder holds nothing but the scene.
+void expectRejected(const std::string& text, const std::string& message)
+{
+  const TempDir dir;
+  writeFile(dir.path() / "scene.json", text);
+  const Outcome o = run(kStep04, {"scene.json", "-o", "out.png", "--quiet"}, dir.path());
+  CHECK(o.signal == 0);
+  CHECK(o.status == 1);
+  CHECK(o.err == "step04_shadows: " + message + "\n");
+  CHECK(entries(dir.path()) == std::vector<std::string>{"scene.json"});
+}
+
+// Runs step04 with `args` in an empty folder; checks status 2, that standard error starts with `message` and
+// ends with the usage hint, and that nothing was written.
+void expectUsageError(const std::vector<std::string>& args, const std::string& message)
+{
+  const TempDir dir;
+  std::vector<std::string> all{std::string(RAYLIFE_TEST_SCENE)};
+  all.insert(all.end(), args.begin(), args.end());
+  const Outcome o = run(kStep04, all, dir.path());
+  CHECK(o.signal == 0);
+  CHECK(o.status == 2);
+  CHECK(o.err == "step04_shadows: " + message + "\nusage: step04_shadows [SCENE.json] [options]; see --help\n");
+  CHECK(entries(dir.path()).empty());
+}
+
+} // namespace
+
+TEST_CASE("the valid base scene renders: every rejection below is the doing of its fault")
+{
+  const TempDir dir;
+  writeFile(dir.path() / "scene.json", kScene);
+  const Outcome o = run(kStep04, {"scene.json", "-o", "out.png", "--quiet"}, dir.path());
+  CHECK(o.status == 0);
+  CHECK(o.err == "");
+  CHECK(entries(dir.path()) == std::vector<std::string>{"out.png", "scene.json"});
+  const raylife::Image image = raylife::readPng((dir.path() / "out.png").string());
+  CHECK(image.width == 64);
+  CHECK(image.height == 48);
+}
+
+TEST_CASE("every fault in a scene file is reported once with its place and nothing is written")
+{
+  const std::vector<BadScene> cases = {
+      {"malformed JSON: a missing comma", withFault(R"("vfov": 40,)", R"("vfov": 40)"),
+       "scene.json:2:81: malformed JSON: syntax error while parsing object - unexpected string literal; expected '}'"},
+      {"malformed JSON: a trailing comma", withFault(R"("height": 48 })", R"("height": 48, })"),
+       "scene.json:2:109: malformed JSON: syntax error while parsing object key - unexpected '}'; expected string "
+       "literal"},
+      {"a NaN", withFault(R"("radius": 1,)", R"("radius": NaN,)"),
+       "scene.json:11:38: malformed JSON: syntax error while parsing value - invalid literal; last read: "
+       "'\"radius\": N'"},
+      {"a wrong type", withFault(R"("radius": 1,)", R"("radius": "1",)"),
+       "scene.json:11:38: /spheres/1/radius: expected a number, got string \"1\""},
+      {"a missing key", withFault(R"("center": [0, 1, 0], )", ""),
+       "scene.json:11:5: /spheres/1/center: missing key 'center'"},
+      {"an unknown key", withFault(R"("radius": 1,)", R"("radius": 1, "colour": [1, 0, 0],)"),
+       "scene.json:11:51: /spheres/1/colour: unknown key 'colour'; known keys here: 'center', 'radius', 'material'"},
+      {"a misspelt key", withFault(R"("radius": 1,)", R"("raduis": 1,)"),
+       "scene.json:11:38: /spheres/1/raduis: unknown key 'raduis' (did you mean 'radius'?); known keys here: "
+       "'center', 'radius', 'material'"},
+      {"a misspelt top-level key", withFault(R"("lights")", R"("light")"),
+       "scene.json:13:12: /light: unknown key 'light' (did you mean 'lights'?); known keys here: 'camera', "
+       "'background', 'ambient', 'materials', 'spheres', 'lights'"},
+      {"a key given twice", withFault(R"("radius": 1,)", R"("radius": 1, "radius": 2,)"),
+       "scene.json:11:41: /spheres/1/radius: the key 'radius' is given twice in one object (first at 11:28); give "
+       "each key once"},
+      {"a key given twice in a file with a byte order mark",
+       "\xEF\xBB\xBF" + withFault(R"("radius": 1,)", R"("radius": 1, "radius": 2,)"),
+       "scene.json:11:41: /spheres/1/radius: the key 'radius' is given twice in one object (first at 11:28); give "
+       "each key once"},
+      {"a negative radius in a file with a byte order mark", "\xEF\xBB\xBF" + withFault(R"("radius": 1,)", R"("radius": -1,)"),
+       "scene.json:11:38: /spheres/1/radius: the radius must be greater than 0, got -1"},
+      {"an unknown material type", withFault(R"("type": "glass")", R"("type": "glas")"),
+       "scene.json:7:24: /materials/glass/type: unknown material type 'glas' (did you mean 'glass'?); known types: "
+       "'diffuse', 'mirror', 'glass', 'glossy'"},
+      {"a key that does not apply to the material", withFault(R"([0.8, 0.2, 0.2] })", R"([0.8, 0.2, 0.2], "ior": 1.3 })"),
+       "scene.json:6:68: /materials/red/ior: 'ior' does not apply to a diffuse material (only to glass)"},
+      {"a negative radius", withFault(R"("radius": 1,)", R"("radius": -1,)"),
+       "scene.json:11:38: /spheres/1/radius: the radius must be greater than 0, got -1"},
+      {"a zero radius", withFault(R"("radius": 1,)", R"("radius": 0,)"),
+       "scene.json:11:38: /spheres/1/radius: the radius must be greater than 0, got 0"},
+      {"a number too large for a double", withFault(R"("radius": 1,)", R"("radius": 1e400,)"),
+       "scene.json:11:38: /spheres/1/radius: the number 1e400 is too large for a double"},
+      {"an index of refraction below 1", withFault(R"("ior": 1.5)", R"("ior": 0.9)"),
+       "scene.json:7:60: /materials/glass/ior: the index of refraction must be at least 1, got 0.9"},
+      {"a negative colour", withFault("[0.8, 0.2, 0.2]", "[0.8, -0.2, 0.2]"),
+       "scene.json:6:50: /materials/red/color/1: a colour must not be negative, got -0.2"},
+      {"a colour above 1", withFault("[0.8, 0.2, 0.2]", "[0.8, 1.2, 0.2]"),
+       "scene.json:6:50: /materials/red/color/1: a colour must be at most 1 (a surface cannot reflect more light "
+       "than reaches it), got 1.2"},
+      {"a negative emission", withFault("[0.8, 0.2, 0.2]", R"([0.8, 0.2, 0.2], "emission": [0, -1, 0])"),
+       "scene.json:6:77: /materials/red/emission/1: emission must not be negative, got -1"},
+      {"a negative background", withFault("[0.5, 0.7, 0.9]", "[0.5, -0.7, 0.9]"),
+       "scene.json:3:23: /background/1: background radiance must not be negative, got -0.7"},
+      {"a negative light intensity", withFault("[50, 50, 50]", "[50, -50, 50]"),
+       "scene.json:13:75: /lights/0/intensity/1: intensity must not be negative, got -50"},
+      {"a light that is not a point light", withFault(R"("type": "point")", R"("type": "spot")"),
+       "scene.json:13:25: /lights/0/type: unknown light type 'spot'; known types: 'point' (for area lights, give a "
+       "sphere a material with \"emission\")"},
+      {"a field of view of 0", withFault(R"("vfov": 40)", R"("vfov": 0)"),
+       "scene.json:2:78: /camera/vfov: the field of view must lie strictly between 0 and 180 degrees, got 0"},
+      {"a field of view of 180", withFault(R"("vfov": 40)", R"("vfov": 180)"),
+       "scene.json:2:78: /camera/vfov: the field of view must lie strictly between 0 and 180 degrees, got 180"},
+      {"a zero-length up vector", withFault(R"("up": [0, 1, 0])", R"("up": [0, 0, 0])"),
+       "scene.json:2:59: /camera/up: the up vector has zero length"},
+      {"an up vector parallel to the view direction", withFault(R"("up": [0, 1, 0])", R"("up": [0, 0, 1])"),
+       "scene.json:2:59: /camera/up: the up vector is parallel to the view direction (eye - focal)"},
+      {"the eye at the focal point", withFault(R"("eye": [0, 1, 6])", R"("eye": [0, 1, 0])"),
+       "scene.json:2:42: /camera/focal: eye and focal are the same point, so there is no view direction"},
+      {"an image width of 0", withFault(R"("width": 64)", R"("width": 0)"),
+       "scene.json:2:91: /camera/width: must be at least 1, got 0"},
+      {"a negative image height", withFault(R"("height": 48)", R"("height": -48)"),
+       "scene.json:2:105: /camera/height: must be at least 1, got -48"},
+      {"a fractional image width", withFault(R"("width": 64)", R"("width": 64.5)"),
+       "scene.json:2:91: /camera/width: expected a whole number, got number 64.5"},
+      {"an image too large to allocate", withFault(R"("width": 64, "height": 48)", R"("width": 100000, "height": 100000)"),
+       "scene.json:2:91: /camera/width: an image of 100000x100000 pixels is larger than the 67108864 pixels raylife "
+       "allows"},
+      {"an image width beyond 64 bits", withFault(R"("width": 64)", R"("width": 123456789012345678901234567890)"),
+       "scene.json:2:91: /camera/width: must be at most 67108864, got 1.2345678901234568e+29"},
+      {"an undefined material", withFault(R"("material": "glass")", R"("material": "glas")"),
+       "scene.json:11:53: /spheres/1/material: undefined material 'glas' (did you mean 'glass'?); defined: 'red', "
+       "'glass'"},
+      {"an undefined material with no near name", withFault(R"("material": "glass")", R"("material": "steel")"),
+       "scene.json:11:53: /spheres/1/material: undefined material 'steel'; defined: 'red', 'glass'"},
+      {"an empty scene",
+       withFault("{ \"center\": [0, -100, 0], \"radius\": 100, \"material\": \"red\" },\n    "
+                 "{ \"center\": [0, 1, 0], \"radius\": 1, \"material\": \"glass\" }",
+                 ""),
+       "scene.json:9:14: /spheres: the scene is empty: give at least one sphere"},
+      {"a top level that is not an object", "[1, 2]", "scene.json:1:1: /: expected an object { ... }, got array [1,2]"},
+      {"an empty file", "", "scene.json:1:1: the file is empty: expected a JSON object such as {\"camera\": {...}, "
+                            "\"spheres\": [...]}"},
+      {"a NUL byte", withFault("\"ambient\"", std::string("\"amb\0ient\"", 10)),
+       "scene.json:4:7: the file contains a NUL byte: a scene file is JSON text"},
+      {"bytes that are not UTF-8", withFault("\"glass\":", "\"gl\xe4ss\":"),
+       "scene.json:7:9: malformed JSON: syntax error while parsing object key - invalid string: ill-formed UTF-8 "
+       "byte; last read: '\"gl\\xe4s'; expected string literal"},
+      {"a control character in a name (escaped in the message)", withFault("\"glass\":", "\"gl\\nass\":"),
+       "scene.json:11:53: /spheres/1/material: undefined material 'glass' (did you mean 'gl\\nass'?); defined: "
+       "'red', 'gl\\nass'"},
+      {"nesting deeper than any scene", std::string(1000, '[') + std::string(1000, ']'),
+       "scene.json:1:33: /0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0/0: objects and arrays nested "
+       "deeper than 32 levels (a scene needs at most 4)"},
+  };
+  for (const BadScene& c : cases) {
+    SECTION(c.what) { expectRejected(c.text, c.message); }
+  }
+}
+
+TEST_CASE("an unused material is only a warning")
+{
+  const TempDir dir;
+  writeFile(dir.path() / "scene.json",
+            withFault(R"("red":   {)", R"("unused": { "type": "diffuse" }, "red":   {)"));
+  const Outcome o = run(kStep04, {"scene.json", "-o", "out.png", "--quiet"}, dir.path());
+  CHECK(o.status == 0);
+  CHECK(o.err == "step04_shadows: warning: scene.json:6:15: /materials/unused: material 'unused' is defined but no "
+                 "sphere uses it\n");
+  CHECK(entries(dir.path()) == std::vector<std::string>{"out.png", "scene.json"});
+}
+
+TEST_CASE("a scene path that is no readable scene file is reported")
+{
+  const TempDir dir;
+  fs::create_directory(dir.path() / "folder.json");
+  SECTION("a missing file")
+  {
+    const Outcome o = run(kStep04, {"missing.json", "-o", "out.png"}, dir.path());
+    CHECK(o.status == 1);
+    CHECK(o.err == "step04_shadows: missing.json: cannot open the scene file: No such file or directory\n");
+  }
+  SECTION("a folder")
+  {
+    const Outcome o = run(kStep04, {"folder.json", "-o", "out.png"}, dir.path());
+    CHECK(o.status == 1);
+    CHECK(o.err == "step04_shadows: folder.json: is a folder, not a scene file\n");
+  }
+  SECTION("an endless file")
+  {
+    const Outcome o = run(kStep04, {"/dev/zero", "-o", "out.png"}, dir.path());
+    CHECK(o.status == 1);
+    CHECK(o.err == "step04_shadows: /dev/zero: the scene file is larger than 64 MiB; a scene file is a small JSON "
+                   "text\n");
+  }
+  CHECK(entries(dir.path()) == std::vector<std::string>{"folder.json"});
+}
+
+TEST_CASE("command-line faults exit with status 2 and write nothing")
+{
+  SECTION("an unknown flag") { expectUsageError({"--frobnicate"}, "unknown option '--frobnicate'; see --help"); }
+  SECTION("a misspelt flag")
+  {
+    expectUsageError({"--widht", "5"}, "unknown option '--widht' (did you mean '--width'?); see --help");
+  }
+  SECTION("a flag=value spelling")
+  {
+    expectUsageError({"--spp=4"}, "unknown option '--spp=4' (did you mean '--spp'?); see --help");
+  }
+  SECTION("a missing value") { expectUsageError({"--spp"}, "--spp expects a value"); }
+  SECTION("a bad number") { expectUsageError({"--spp", "abc"}, "--spp expects a whole number, got 'abc'"); }
+  SECTION("a number with a tail") { expectUsageError({"--width", "64px"}, "--width expects a whole number, got '64px'"); }
+  SECTION("a width of 0") { expectUsageError({"--width", "0"}, "--width must lie in [1, 67108864], got 0"); }
+  SECTION("a negative time") { expectUsageError({"--time", "-1"}, "--time must be greater than 0, got -1"); }
+  SECTION("a time that is not a number") { expectUsageError({"--time", "nan"}, "--time expects a number, got 'nan'"); }
+  SECTION("both --spp and --time")
+  {
+    expectUsageError({"--spp", "4", "--time", "1"}, "give --spp or --time, not both");
+  }
+  SECTION("an output that is neither PNG nor PFM")
+  {
+    expectUsageError({"-o", "out.jpg"}, "-o 'out.jpg': unknown image format (the output must end in .png or .pfm)");
+  }
+  SECTION("the same output twice")
+  {
+    expectUsageError({"-o", "a.png", "-o", "a.png"}, "'a.png' is given as two outputs; each output needs its own file");
+  }
+  SECTION("three outputs")
+  {
+    expectUsageError({"-o", "a.png", "-o", "b.pfm", "-o", "c.png"}, "-o may be given at most twice (a .png and a .pfm)");
+  }
+  SECTION("two scenes")
+  {
+    expectUsageError({"other.json"}, "more than one scene given: '" + std::string(RAYLIFE_TEST_SCENE) +
+                                         "' and 'other.json'");
+  }
+}
+
+TEST_CASE("an image too large for memory on the command line is refused before rendering")
+{
+  const TempDir dir;
+  const Outcome o =
+      run(kStep04, {RAYLIFE_TEST_SCENE, "--width", "100000", "--height", "100000", "-o", "out.png"}, dir.path());
+  CHECK(o.status == 2);
+  CHECK(o.err == "step04_shadows: --width/--height: an image of 100000x100000 pixels is larger than the 67108864 "
+                 "pixels raylife allows\n");
+  CHECK(entries(dir.path()).empty());
+}
+
+TEST_CASE("an output in a folder that does not exist is refused before rendering")
+{
+  const TempDir dir;
+  const Outcome o = run(kStep04, {RAYLIFE_TEST_SCENE, "-o", "missing/out.png"}, dir.path());
+  CHECK(o.status == 1);
+  CHECK(o.err == "step04_shadows: cannot write missing/out.png: the folder missing does not exist; nothing was "
+                 "written\n");
+  CHECK(entries(dir.path()).empty());
+}
+
+TEST_CASE("an output that is a folder is refused before rendering")
+{
+  const TempDir dir;
+  fs::create_directory(dir.path() / "out.png");
+  const Outcome o = run(kStep04, {RAYLIFE_TEST_SCENE, "-o", "out.png"}, dir.path());
+  CHECK(o.status == 1);
+  CHECK(o.err == "step04_shadows: cannot write out.png: it is a folder; nothing was written\n");
+  CHECK(entries(dir.path()) == std::vector<std::string>{"out.png"});
+  CHECK(fs::is_empty(dir.path() / "out.png"));
+}
+
+TEST_CASE("a failed write (injected: the disk fills up) leaves the old files untouched and says so")
+{
+  // RAYLIFE_FAIL_WRITE_AFTER=N makes every write fail with ENOSPC after N bytes. At 100000 bytes the PNG
+  // (about 40 kB) is written in full to its temporary file, the PFM (921 kB) is not: all or nothing means the
+  // finished PNG must not be renamed into place either.
+  const TempDir dir;
+  writeFile(dir.path() / "out.png", "old png");
+  const Outcome o = run(kStep04, {RAYLIFE_TEST_SCENE, "-o", "out.png", "-o", "out.pfm", "--quiet"}, dir.path(),
+                        {"RAYLIFE_FAIL_WRITE_AFTER=100000"});
+  CHECK(o.status == 1);
+  CHECK(o.err == "step04_shadows: cannot write out.pfm: No space left on device; nothing was written\n");
+  CHECK(entries(dir.path()) == std::vector<std::string>{"out.png"});
+  CHECK(readFile(dir.path() / "out.png") == "old png");
+
+  SECTION("the message names the existing file it kept")
+  {
+    writeFile(dir.path() / "out.pfm", "old pfm");
+    const Outcome again = run(kStep04, {RAYLIFE_TEST_SCENE, "-o", "out.pfm", "--quiet"}, dir.path(),
+                              {"RAYLIFE_FAIL_WRITE_AFTER=0"});
+    CHECK(again.status == 1);
+    CHECK(again.err == "step04_shadows: cannot write out.pfm: No space left on device; the existing out.pfm was "
+                       "left as it was; nothing was written\n");
+    CHECK(entries(dir.path()) == std::vector<std::string>{"out.pfm", "out.png"});
+    CHECK(readFile(dir.path() / "out.pfm") == "old pfm");
+  }
+}
+
+namespace {
+
+constexpr int kSkipped = 77; // ctest reports a test that exits with this status as skipped (SKIP_RETURN_CODE)
+
+// Gives this test process a mount namespace of its own, so a tmpfs mounted here is invisible to everything
+// else and vanishes with the process. When that is not permitted (not root, a container without
+// CAP_SYS_ADMIN), the test is skipped with a message saying why: the injected-failure test above still runs.
+void privateMountsOrSkip(const char* test)
+{
+  if (::unshare(CLONE_NEWNS) != 0 || ::mount("none", "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0) {
+    std::cerr << "SKIPPED: " << test << ": cannot mount a tmpfs here (" << std::strerror(errno)
+              << "; needs root or CAP_SYS_ADMIN)\n";
+    std::exit(kSkipped);
+  }
+}
+
+// A tmpfs mounted on a folder for the life of the object.
+class Tmpfs {
+public:
+  Tmpfs(const fs::path& at, const char* options) : at_(at)
+  {
+    fs::create_directory(at_);
+    if (::mount("tmpfs", at_.c_str(), "tmpfs", 0, options) != 0)
+      FAIL("cannot mount a tmpfs (" << options << ") on " << at_ << ": " << std::strerror(errno));
+  }
+  ~Tmpfs() { ::umount(at_.c_str()); }
+  Tmpfs(const Tmpfs&) = delete;
+  Tmpfs& operator=(const Tmpfs&) = delete;
+
+private:
+  fs::path at_;
+};
+
+} // namespace
+
+TEST_CASE("a write to a full disk (a 64 kB tmpfs) leaves the old file untouched and says so")
+{
+  privateMountsOrSkip("full disk");
+  const TempDir dir;
+  const Tmpfs full(dir.path() / "full", "size=64k");
+  writeFile(dir.path() / "full" / "out.pfm", "old pfm");
+  const Outcome o = run(kStep04, {RAYLIFE_TEST_SCENE, "-o", "out.pfm", "--quiet"}, dir.path() / "full");
+  CHECK(o.status == 1);
+  CHECK(o.err == "step04_shadows: cannot write out.pfm: No space left on device; the existing out.pfm was left as "
+                 "it was; nothing was written\n");
+  CHECK(entries(dir.path() / "full") == std::vector<std::string>{"out.pfm"});
+  CHECK(readFile(dir.path() / "full" / "out.pfm") == "old pfm");
+}
+
+TEST_CASE("an output in a read-only folder is refused before rendering")
+{
+  // As root, chmod does not stop a write, so the folder is a read-only tmpfs: no one can write there.
+  privateMountsOrSkip("read-only folder");
+  const TempDir dir;
+  const Tmpfs readOnly(dir.path() / "ro", "ro");
+  const Outcome o = run(kStep04, {RAYLIFE_TEST_SCENE, "-o", "ro/out.png"}, dir.path());
+  CHECK(o.status == 1);
+  CHECK(o.err == "step04_shadows: cannot write ro/out.png: the folder ro is not writable (Read-only file system); "
+                 "nothing was written\n");
+  CHECK(entries(dir.path() / "ro").empty());
+}
+
+namespace {
+
+// Starts step04 with `args` in `dir` and waits until it has installed its SIGINT and SIGTERM handlers (it does
+// so just before it renders), so a signal sent now reaches the renderer, not the default action.
+Child startRender(const std::vector<std::string>& args, const fs::path& dir, const fs::path& capture)
+{
+  const Child child = start(kStep04, args, dir, capture);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!(catchesSignal(child.pid, SIGINT) && catchesSignal(child.pid, SIGTERM))) {
+    if (std::chrono::steady_clock::now() > deadline) {
+      ::kill(child.pid, SIGKILL);
+      wait(child);
+      FAIL("the renderer did not install its signal handlers within 60 s");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return child;
+}
+
+// Checks that a signal (SIGINT or SIGTERM) during a --time render stops it after the pass in flight, writes
+// the image it has, reports its samples per pixel and exits with 130.
+void checkInterruptedRender(int sig)
+{
+  const TempDir dir, capture;
+  const Child child = startRender({RAYLIFE_TEST_SCENE, "--time", "60", "--width", "64", "--height", "48", "-o",
+                                   "out.png", "-o", "out.pfm"},
+                                  dir.path(), capture.path());
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  REQUIRE(::kill(child.pid, sig) == 0);
+  const Outcome o = wait(child);
+  CHECK(o.signal == 0);
+  CHECK(o.status == 130);
+  INFO(o.err);
+  std::smatch m;
+  REQUIRE(std::regex_search(o.err, m,
+                            std::regex(R"(step04_shadows: 64x48, (\d+) spp, [0-9.]+ s, .* rays, .* \(interrupted after )"
+                                       R"((\d+) spp\) -> out\.png, out\.pfm\n$)")));
+  CHECK(m[1] == m[2]);
+  CHECK(std::stoi(m[1]) >= 1);
+  CHECK(entries(dir.path()) == std::vector<std::string>{"out.pfm", "out.png"});
+  const raylife::Image png = raylife::readPng((dir.path() / "out.png").string());
+  const raylife::Image pfm = raylife::readPfm((dir.path() / "out.pfm").string());
+  CHECK(png.width == 64);
+  CHECK(png.height == 48);
+  CHECK(pfm.width == 64);
+  CHECK(pfm.height == 48);
+  double sum = 0;
+  for (float v : pfm.pixels)
+    sum += v;
+  CHECK(sum > 0); // the image holds the render, not a blank film
+}
+
+} // namespace
+
+TEST_CASE("Ctrl-C (SIGINT) during a render writes the image so far and exits with 130")
+{
+  checkInterruptedRender(SIGINT);
+}
+
+TEST_CASE("SIGTERM during a render writes the image so far and exits with 130")
+{
+  checkInterruptedRender(SIGTERM);
+}
+
+TEST_CASE("a second Ctrl-C stops at once and writes nothing")
+{
+  // One pass of a large image on one thread takes seconds, so the second signal lands inside the first pass.
+  const TempDir dir, capture;
+  const Child child = startRender({RAYLIFE_TEST_SCENE, "--time", "60", "--width", "1600", "--height", "1200",
+                                   "--threads", "1", "-o", "out.png"},
+                                  dir.path(), capture.path());
+  REQUIRE(::kill(child.pid, SIGINT) == 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  REQUIRE(::kill(child.pid, SIGINT) == 0);
+  const auto sent = std::chrono::steady_clock::now();
+  const Outcome o = wait(child);
+  CHECK(o.signal == 0);
+  CHECK(o.status == 130);
+  CHECK(o.err.find("interrupted twice: stopped without writing\n") != std::string::npos);
+  CHECK(entries(dir.path()).empty());
+  // "At once": well before the pass in flight could have ended (a generous bound for a loaded machine).
+  CHECK(std::chrono::steady_clock::now() - sent < std::chrono::seconds(5));
+}

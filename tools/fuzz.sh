@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Fuzzes the scene loader with libFuzzer for SECONDS (default 60), single process.
+#   tools/fuzz.sh SECONDS [BUILD_DIR]
+# Builds tests/fuzz/fuzz_scene with clang (-fsanitize=fuzzer,address,undefined) in BUILD_DIR (default
+# build-fuzz/), seeds it from scenes/, scenes/stress/ and tests/fuzz/regressions/, keeps the growing corpus in
+# BUILD_DIR/corpus/ between runs, and leaves any crashing or hanging input in BUILD_DIR/crashes/.
+# Exit status: 0 nothing found, 1 the fuzzer found a fault (copy the input into tests/fuzz/regressions/ once fixed),
+# 2 bad usage. Needs clang, libclang-rt-14-dev and libomp-14-dev (./setup.sh --fuzz).
+set -euo pipefail
+
+seconds=${1:-60}
+if ! [[ "$seconds" =~ ^[1-9][0-9]*$ ]]; then
+  echo "usage: tools/fuzz.sh SECONDS [BUILD_DIR]" >&2
+  exit 2
+fi
+root=$(cd "$(dirname "$0")/.." && pwd)
+build=${2:-$root/build-fuzz}
+
+flags="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
+mkdir -p "$build"
+CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRAYLIFE_FUZZ=ON \
+  -DCMAKE_CXX_FLAGS="$flags" >"$build/configure.log" 2>&1 || { cat "$build/configure.log" >&2; exit 1; }
+cmake --build "$build" --target fuzz_scene -j2
+
+corpus="$build/corpus"
+crashes="$build/crashes"
+mkdir -p "$corpus" "$crashes"
+seeds=("$root/scenes")
+[ -d "$root/scenes/stress" ] && seeds+=("$root/scenes/stress")
+seeds+=("$root/tests/fuzz/regressions")
+
+echo "fuzz.sh: fuzzing the scene loader for $seconds s; corpus $corpus, faults into $crashes/"
+status=0
+ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_scene" "$corpus" "${seeds[@]}" \
+  -dict="$root/tests/fuzz/scene.dict" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+  -max_len=16384 -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
+if [ "$status" -ne 0 ]; then
+  echo "fuzz.sh: the fuzzer found a fault (status $status); inputs in $crashes/:" >&2
+  ls -l "$crashes" >&2
+  exit 1
+fi
+echo "fuzz.sh: no fault found in $seconds s"
