@@ -25,11 +25,13 @@ struct ChapterRun {
 
 /// Runs `binary` (a chapter, e.g. "step04_shadows") on `scene` with one thread, writing into the test's output
 /// folder under the file stem `tag` (unique per test, as ctest runs tests in parallel).
-inline ChapterRun runChapter(const std::string& binary, const std::string& scene, const std::string& tag)
+/// `extra` is appended to the command line (e.g. a smaller size and spp for the Monte Carlo chapters).
+inline ChapterRun runChapter(const std::string& binary, const std::string& scene, const std::string& tag,
+                             const std::string& extra = "")
 {
   const std::string stem = std::string(RAYLIFE_STABILITY_OUT_DIR) + "/" + tag;
   const std::string command = std::string("\"") + RAYLIFE_STEP_DIR + "/" + binary + "\" \"" + scene + "\" -o \"" +
-                              stem + ".pfm\" --stats \"" + stem + ".json\" --threads 1 --quiet";
+                              stem + ".pfm\" --stats \"" + stem + ".json\" --threads 1 --quiet " + extra;
   ChapterRun run;
   const int raw = std::system(command.c_str());
   run.status = raw == -1 ? -1 : WEXITSTATUS(raw);
