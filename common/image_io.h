@@ -52,6 +52,7 @@ public:
 /// target's folder, and only when all have been written are they renamed into place (rename is atomic on one
 /// file system). On any failure every temporary file is removed, no target is touched, and ImageIoError says
 /// what failed and that an existing file was left as it was.
+/// @param files  the files to write: each target path with its bytes (its temporary file goes in its folder).
 /// @param cancel if not null, checked between chunks of 1 MiB and before the renames: once it is true, the
 ///               temporary files are removed and WriteCancelled is thrown. It may be set from a signal handler.
 /// Tests may set the environment variable RAYLIFE_FAIL_WRITE_AFTER=N to make every write fail with ENOSPC
