@@ -86,8 +86,9 @@ struct RenderResult {
   double meanSpp = 0;           ///< Mean samples per pixel (equal to spp unless sampling was adaptive).
 };
 
-/// Adaptive sampling looks at a pixel's error only once it has this many samples, and then again after every
-/// further this many (the same points whatever the threads or the timing, so the image stays reproducible).
+/// Adaptive sampling looks at a pixel's error only once it has this many samples, and then again each time the
+/// count has grown by a quarter, in multiples of this (16, 32, 48, 64, 80, 96, 112, 128, 160, ...: the same points
+/// whatever the threads or the timing, so the image stays reproducible).
 /// Fewer samples give too rough an estimate of the variance: a pixel whose first few samples happen to agree
 /// (all missing a small light, say) would stop with a large error.
 inline constexpr int kAdaptiveMinSamples = 16;
@@ -103,7 +104,7 @@ inline constexpr double kAdaptiveMeanFloor = 1.0 / 256.0;
 /// the order of s, so the image is bit-identical for any thread count (and any batching). With `seconds`,
 /// batches continue until the budget is spent (at least one sample), each cut to what is left of it; `stop`
 /// is looked at between batches. Every pixel has the same number of samples, unless `settings.adaptive` is set:
-/// then, at kAdaptiveMinSamples samples and every kAdaptiveMinSamples after, each pixel whose
+/// then, at kAdaptiveMinSamples samples and at fixed counts after (see there), each pixel whose
 /// Film::relativeError(kAdaptiveMeanFloor) is below the threshold stops taking samples (batches end at these
 /// points, so which pixels go on depends only on the seed). Samples then fall uniformly in the pixel (the
 /// stratification assumes every pixel takes every sample). Biased: the stopping rule correlates with the samples.
