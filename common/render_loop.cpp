@@ -96,7 +96,8 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
 {
   const int width = camera.width(), height = camera.height();
   RenderResult result{Film(width, height)};
-  const std::vector<Tile> tiles = makeTiles(width, height);
+  const std::vector<Tile> allTiles = makeTiles(width, height);
+  std::vector<Tile> tiles = allTiles; // the work of a batch (adaptive sampling narrows it to the active pixels)
   const int threads = settings.threads > 0 ? settings.threads : omp_get_max_threads();
   const int target = settings.spp ? *settings.spp : (settings.seconds ? 0 : 1); // 0: until the time is spent
 
@@ -128,6 +129,15 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
       if (activeCount == 0)
         break;
       nextCheckpoint = adaptiveCheckpointAfter(done);
+      // Hand out only the rows of tiles that still have active pixels, so that the threads share the work left
+      // even when it gathers in a few tiles.
+      tiles.clear();
+      for (const Tile& t : allTiles)
+        for (int y = t.y0; y < t.y1; ++y) {
+          const auto row = active.begin() + std::ptrdiff_t(std::size_t(y) * std::size_t(width));
+          if (std::find(row + t.x0, row + t.x1, 1) != row + t.x1)
+            tiles.push_back({t.x0, y, t.x1, y + 1});
+        }
     }
     if (done > 0 && settings.seconds && elapsed() >= *settings.seconds)
       break;
