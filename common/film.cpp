@@ -1,6 +1,8 @@
 #include "film.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 
 namespace raylife {
 
@@ -38,6 +40,21 @@ Image Film::varianceOfMean() const
       }
     }
   return image;
+}
+
+double Film::relativeError(int x, int y, double floor) const
+{
+  const Pixel& p = pixels_[index(x, y)];
+  if (p.count < 2)
+    return std::numeric_limits<double>::infinity();
+  const double n = double(p.count);
+  double worst = 0;
+  for (int c = 0; c < 3; ++c) {
+    const double mean = p.sum[c] / n;
+    const double s2 = std::max(0.0, (p.sumSquares[c] - n * mean * mean) / (n - 1));
+    worst = std::max(worst, std::sqrt(s2 / n) / std::max(mean, floor));
+  }
+  return worst;
 }
 
 } // namespace raylife

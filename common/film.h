@@ -50,6 +50,10 @@ public:
   /// The estimated variance of each pixel's mean, s²/n with s² the unbiased sample variance (0 for n < 2).
   Image varianceOfMean() const;
 
+  /// The estimated relative standard error of pixel (x, y)'s mean: the largest over the channels of
+  /// sqrt(s²/n) / max(mean, floor), with s² the unbiased sample variance; `floor` (> 0, radiance) keeps dark
+  /// pixels from needing endless samples. +infinity for n < 2 (nothing is known yet).
+  double relativeError(int x, int y, double floor) const;
   /// Samples taken in pixel (x, y).
   std::uint32_t samples(int x, int y) const { return pixels_[index(x, y)].count; }
 

@@ -115,6 +115,10 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
       o.maxDepth = int(parseInteger(arg, value(), 0, 1 << 20));
     } else if (arg == "--quiet" || arg == "-q") {
       o.quiet = true;
+    } else if (arg == "--verbose") {
+      o.verbose = true;
+    } else if (arg == "--adaptive") {
+      o.adaptive = parsePositive(arg, value());
     } else if (arg.size() > 1 && arg[0] == '-') {
       const std::string near = nearestFlag(arg);
       throw UsageError("unknown option '" + arg + "'" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
@@ -158,6 +162,9 @@ std::string usageText(const std::string& binary, const std::string& defaultScene
          "  --variance FILE    also write each pixel's variance of the mean, as PFM\n"
          "  --stats FILE       also write the render's figures as JSON\n"
          "  --quiet            no progress bar and no summary line\n"
+         "  --verbose          print the render's plan (what the scene lets it skip) on standard error\n"
+         "  --adaptive E       Monte Carlo chapters (6 to 8): a pixel stops taking samples once the relative\n"
+         "                     standard error of its mean is below E (biased a little; see docs/09_bvh.md)\n"
          "  --help             this text\n"
          "\n"
          "exit status: 0 done, 1 bad input or a failed write, 2 bad command line, 130 interrupted\n";

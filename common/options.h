@@ -25,6 +25,10 @@ struct RenderOptions {
   std::optional<int> maxDepth;      ///< --max-depth: longest path in bounces, ≥ 0.
   bool quiet = false;               ///< --quiet: no progress bar, no summary line.
   bool help = false;                ///< --help was given.
+  bool verbose = false;             ///< --verbose: print the render's plan (scene_plan.h) on standard error.
+  /// --adaptive: a pixel stops taking samples once the estimated relative standard error of its mean falls below
+  /// this (> 0, e.g. 0.02 for 2 %); honoured by the Monte Carlo chapters (6 to 8) only.
+  std::optional<double> adaptive;
 };
 
 /// A fault in the command line. what() says which argument and what is wrong.

@@ -1,6 +1,7 @@
 #include "render_loop.h"
 
 #include "image_io.h"
+#include "scene_plan.h"
 
 #include <omp.h>
 
@@ -59,6 +60,14 @@ Vec2 pixelOffset(PixelSampling mode, std::uint64_t s, std::optional<int> spp, Sa
   return Vec2((cx + jitter.x) / Real(n), (cy + jitter.y) / Real(n));
 }
 
+// The sample count at which adaptive sampling looks at the pixels again, after looking at `done`: a quarter more
+// (in steps of kAdaptiveMinSamples), so that a pixel takes at most about 25 % more samples than it needed, and a
+// long render has few checkpoints (each one a pass over the film and the end of a batch).
+int adaptiveCheckpointAfter(int done)
+{
+  return done + std::max(kAdaptiveMinSamples, done / 4 / kAdaptiveMinSamples * kAdaptiveMinSamples);
+}
+
 // Two images of one height side by side: `left`, then `right`.
 Image sideBySide(const Image& left, const Image& right)
 {
@@ -89,7 +98,8 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
 {
   const int width = camera.width(), height = camera.height();
   RenderResult result{Film(width, height)};
-  const std::vector<Tile> tiles = makeTiles(width, height);
+  const std::vector<Tile> allTiles = makeTiles(width, height);
+  std::vector<Tile> tiles = allTiles; // the work of a batch (adaptive sampling narrows it to the active pixels)
   const int threads = settings.threads > 0 ? settings.threads : omp_get_max_threads();
   const int target = settings.spp ? *settings.spp : (settings.seconds ? 0 : 1); // 0: until the time is spent
 
@@ -102,7 +112,35 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
   // (which, on a loaded machine, costs more than the samples of a small image). Batches double in size, and are
   // cut to about kBatchSeconds (and to what is left of a time budget) so that a stop request is answered soon.
   int done = 0;
+  // Adaptive sampling: which pixels still take samples (1) or have stopped (0), decided between batches.
+  std::vector<unsigned char> active(std::size_t(width) * std::size_t(height), 1);
+  std::size_t activeCount = active.size();
+  std::uint64_t samplesTaken = 0;
+  int nextCheckpoint = kAdaptiveMinSamples;
   while (target == 0 || done < target) {
+    if (settings.adaptive && done == nextCheckpoint) {
+      // A checkpoint: stop each pixel whose estimated relative error is below the threshold.
+      activeCount = 0;
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+          unsigned char& a = active[std::size_t(y) * std::size_t(width) + std::size_t(x)];
+          if (a && result.film.relativeError(x, y, kAdaptiveMeanFloor) < *settings.adaptive)
+            a = 0;
+          activeCount += a;
+        }
+      if (activeCount == 0)
+        break;
+      nextCheckpoint = adaptiveCheckpointAfter(done);
+      // Hand out only the rows of tiles that still have active pixels, so that the threads share the work left
+      // even when it gathers in a few tiles.
+      tiles.clear();
+      for (const Tile& t : allTiles)
+        for (int y = t.y0; y < t.y1; ++y) {
+          const auto row = active.begin() + std::ptrdiff_t(std::size_t(y) * std::size_t(width));
+          if (std::find(row + t.x0, row + t.x1, 1) != row + t.x1)
+            tiles.push_back({t.x0, y, t.x1, y + 1});
+        }
+    }
     if (done > 0 && settings.seconds && elapsed() >= *settings.seconds)
       break;
     if (done > 0 && settings.stop && settings.stop->load()) {
@@ -119,6 +157,8 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
     }
     if (target > 0)
       batch = std::min(batch, target - done);
+    if (settings.adaptive) // end the batch at the next checkpoint
+      batch = std::min(batch, nextCheckpoint - done);
     const int s0 = done, s1 = done + batch;
 
     std::uint64_t rays = 0, bad = 0;
@@ -132,10 +172,11 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
         // [pixel_loop]
         for (int y = tile.y0; y < tile.y1; ++y)
           for (int x = tile.x0; x < tile.x1; ++x)
-            for (int s = s0; s < s1; ++s) {
+            for (int s = s0; s < s1 && active[std::size_t(y) * std::size_t(width) + std::size_t(x)]; ++s) {
               // One pixel sample: its own random numbers, a film position, the chapter's estimate.
               Sampler sampler(settings.seed, x, y, std::uint64_t(s));
-              const Vec2 offset = pixelOffset(settings.pixelSampling, std::uint64_t(s), settings.spp, sampler);
+              const Vec2 offset = pixelOffset(settings.pixelSampling, std::uint64_t(s),
+                                              settings.adaptive ? std::nullopt : settings.spp, sampler);
               const Ray ray = camera.ray(Vec2(Real(x), Real(y)) + offset);
               Color L = trace(scene, ray, sampler, settings.maxDepth);
               // Guard the film: a NaN, infinite or negative sample is counted and replaced by black.
@@ -162,7 +203,9 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
     result.badSamples += bad;
     done = s1;
     result.spp = done;
+    samplesTaken += std::uint64_t(batch) * activeCount;
   }
+  result.meanSpp = double(samplesTaken) / double(active.size());
   result.seconds = elapsed();
   if (settings.progress) {
     drawProgress(1.0, result.seconds);
@@ -213,6 +256,23 @@ std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGive
   for (std::size_t i = 0; i < parts.size(); ++i)
     out += (i == 0 ? "" : (i + 1 == parts.size() ? " and " : ", ")) + parts[i];
   return out;
+}
+
+std::optional<double> applyPlanOptions(const std::string& name, const Scene& scene, const ChapterInfo& chapter,
+                                       const RenderOptions& options)
+{
+  if (options.verbose)
+    for (const std::string& line : describePlan(planScene(scene, chapter.uses)))
+      std::cerr << name << ": " << line << "\n";
+  if (options.adaptive && !chapter.adaptiveSampling) {
+    if (!options.quiet)
+      std::cerr << name << ": ignores --adaptive (only the Monte Carlo chapters 6 to 8 sample adaptively)\n";
+    return std::nullopt;
+  }
+  if (options.verbose && options.adaptive)
+    std::cerr << name << ": plan: adaptive sampling -> a pixel stops once its relative error < " << *options.adaptive
+              << " (checked every " << kAdaptiveMinSamples << " samples)\n";
+  return options.adaptive;
 }
 
 std::string sceneDirectory() { return RAYLIFE_SCENE_DIR; }
@@ -361,6 +421,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     settings.pixelSampling = chapter.pixelSampling;
     settings.progress = !options.quiet && ::isatty(STDERR_FILENO);
     settings.stop = &gStopRequested;
+    settings.adaptive = applyPlanOptions(name, scene, chapter, options); // --verbose, --adaptive
 
     // Render, with Ctrl-C and SIGTERM turned into "stop after this pass" (until the images are written).
     const InterruptHandlers handlers;
@@ -394,7 +455,9 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
            << ", \"spp\": " << result.spp << ", \"seconds\": " << result.seconds << ", \"rays\": " << result.rays
            << ", \"bad_samples\": " << result.badSamples << ", \"threads\": "
            << (settings.threads > 0 ? settings.threads : omp_get_max_threads())
-           << ", \"interrupted\": " << (result.interrupted ? "true" : "false") << "}\n";
+           << ", \"interrupted\": " << (result.interrupted ? "true" : "false")
+           << ", \"mean_spp\": " << result.meanSpp << ", \"adaptive\": " << (settings.adaptive ? "true" : "false")
+           << "}\n";
       const std::string text = json.str();
       files.emplace_back(options.statsPath, std::vector<unsigned char>(text.begin(), text.end()));
     }
@@ -413,6 +476,8 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
       std::snprintf(line, sizeof line, "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s", name.c_str(), mean.width,
                     height, result.spp, result.seconds, formatCount(result.rays).c_str(), mrays);
       std::cerr << line;
+      if (settings.adaptive)
+        std::cerr << " (adaptive: at most " << result.spp << ", mean " << result.meanSpp << " spp)";
       if (result.badSamples)
         std::cerr << ", " << result.badSamples << " bad samples set to 0";
       if (result.interrupted)

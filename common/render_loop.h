@@ -55,6 +55,8 @@ struct ChapterInfo {
   /// camera, seed and samples per pixel, so the output is twice as wide (chapter 9 shows the work each pixel cost
   /// beside the rendered image). Empty: one image.
   TraceFunction besideTrace = {};
+  /// True for the Monte Carlo chapters (6 to 8), which honour --adaptive; the others say they ignore it.
+  bool adaptiveSampling = false;
 };
 
 /// How to render, resolved from the options and the chapter's defaults.
@@ -68,6 +70,9 @@ struct RenderSettings {
   bool progress = false;           ///< Draw a progress bar on standard error.
   /// Set to true (from a signal handler, say) to stop after the pass in flight. May be null.
   const std::atomic<bool>* stop = nullptr;
+  /// Adaptive sampling: a pixel stops taking samples once its Film::relativeError falls below this (> 0).
+  /// Nothing: every pixel takes every sample. See render().
+  std::optional<double> adaptive;
 };
 
 /// What a render produced and what it cost.
@@ -78,7 +83,18 @@ struct RenderResult {
   std::uint64_t rays = 0;       ///< Rays traced (Scene::intersect and Scene::occluded calls).
   std::uint64_t badSamples = 0; ///< Samples that were NaN, infinite or negative: replaced by 0 and counted.
   bool interrupted = false;     ///< Stopped early through RenderSettings::stop.
+  double meanSpp = 0;           ///< Mean samples per pixel (equal to spp unless sampling was adaptive).
 };
+
+/// Adaptive sampling looks at a pixel's error only once it has this many samples, and then again each time the
+/// count has grown by a quarter, in multiples of this (16, 32, 48, 64, 80, 96, 112, 128, 160, ...: the same points
+/// whatever the threads or the timing, so the image stays reproducible).
+/// Fewer samples give too rough an estimate of the variance: a pixel whose first few samples happen to agree
+/// (all missing a small light, say) would stop with a large error.
+inline constexpr int kAdaptiveMinSamples = 16;
+/// Radiance below which adaptive sampling measures a pixel's error absolutely rather than relative to its mean:
+/// 1/256 of white, about one 8-bit step, so that near-black pixels do not take samples without end.
+inline constexpr double kAdaptiveMeanFloor = 1.0 / 256.0;
 
 /// Renders `scene` through `camera` with `trace`.
 ///
@@ -87,7 +103,12 @@ struct RenderResult {
 /// Sample s of pixel (x, y) draws its random numbers from Sampler(seed, x, y, s) and is added to the film in
 /// the order of s, so the image is bit-identical for any thread count (and any batching). With `seconds`,
 /// batches continue until the budget is spent (at least one sample), each cut to what is left of it; `stop`
-/// is looked at between batches. Every pixel always has the same number of samples.
+/// is looked at between batches. Every pixel has the same number of samples, unless `settings.adaptive` is set:
+/// then, at kAdaptiveMinSamples samples and at fixed counts after (see there), each pixel whose
+/// Film::relativeError(kAdaptiveMeanFloor) is below the threshold stops taking samples (batches end at these
+/// points, so which pixels go on depends only on the seed). Samples then fall uniformly in the pixel (the
+/// stratification assumes every pixel takes every sample). Biased: the stopping rule correlates with the samples.
+/// The render ends when every pixel has stopped, or at `spp` (then the most any pixel took) or `seconds`.
 RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
                     const TraceFunction& trace);
 
@@ -106,6 +127,11 @@ using TraceFactory = std::function<TraceFunction(const Scene& scene)>;
 /// (all or nothing) and prints the summary line. Returns the exit status: 0 done, 1 bad input or failed write,
 /// 2 bad command line, 130 interrupted (the image so far was written).
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFunction& trace);
+/// Applies the options that shape the render's plan: prints the scene's plan (scene_plan.h) on standard error
+/// with --verbose, and returns the adaptive-sampling threshold for RenderSettings::adaptive: --adaptive's if the
+/// chapter honours it (ChapterInfo::adaptiveSampling), else nothing (and says it ignores it, unless --quiet).
+std::optional<double> applyPlanOptions(const std::string& name, const Scene& scene, const ChapterInfo& chapter,
+                                       const RenderOptions& options);
 /// The same, for a trace function without a depth limit.
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace);
 /// The same, for a chapter whose trace function is made per scene by `makeTrace` (called once, see TraceFactory).

@@ -74,7 +74,8 @@ int main(int argc, char** argv)
                                     kUsesGlass | kUsesGlossy | kUsesMaxDepth,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 128,
-                            .defaultMaxDepth = -1};
+                            .defaultMaxDepth = -1,
+                            .adaptiveSampling = true};
   /// [chapter]
   return runChapter(argc, argv, chapter, trace);
 }

@@ -20,12 +20,14 @@
 #include "light_sampling.h"
 #include "render_loop.h"
 #include "sampling.h"
+#include "scene_plan.h"
 
 using namespace raylife;
 
 /// [trace]
 // One path's estimate of the radiance arriving along `primary`, of at most `maxDepth` bounces (−1: no limit).
-Color trace(const LightSampler& lights, const Scene& scene, const Ray& primary, Sampler& sampler, int maxDepth)
+Color trace(const LightSampler& lights, bool sampleLights, const Scene& scene, const Ray& primary, Sampler& sampler,
+            int maxDepth)
 {
   Color L(0);    // the radiance this path has gathered
   Color beta(1); // its throughput: the product of f·|cosθi|/pdf of the bounces so far
@@ -54,7 +56,9 @@ Color trace(const LightSampler& lights, const Scene& scene, const Ray& primary, 
     if (!specularSurface) {
       const Real uLight = sampler.next1D();
       const Vec2 uDirection = sampler.next2D();
-      if (const std::optional<LightSample> ls = lights.sample(hit->point, uLight, uDirection)) {
+      // (The plan: with no light to sample, skip it; the numbers are drawn all the same, so the path is unchanged.)
+      if (const std::optional<LightSample> ls =
+              sampleLights ? lights.sample(hit->point, uLight, uDirection) : std::nullopt) {
         const Vec3 wi = frame.toLocal(ls->wi);
         const Color f = bsdfEval(m, wo, wi);
         if (f != Color(0) && lightVisible(scene, *hit, *ls))
@@ -93,12 +97,16 @@ int main(int argc, char** argv)
                                     kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
-                            .defaultMaxDepth = -1};
+                            .defaultMaxDepth = -1,
+                            .adaptiveSampling = true};
   /// [chapter]
   // The light sampler is built once per scene, before the render, and shared (read-only) by every thread.
-  return runChapter(argc, argv, chapter, [](const Scene& scene) -> TraceFunction {
-    return [lights = LightSampler(scene)](const Scene& s, const Ray& ray, Sampler& sampler, int maxDepth) {
-      return trace(lights, s, ray, sampler, maxDepth);
+  // The plan (scene_plan.h): with no emitter and no point light there is nothing to sample, so the trace does BSDF
+  // sampling only (exact: the image is the same, bit for bit).
+  return runChapter(argc, argv, chapter, [&chapter](const Scene& scene) -> TraceFunction {
+    return [lights = LightSampler(scene), sampleLights = planScene(scene, chapter.uses).lightSampling()](
+               const Scene& s, const Ray& ray, Sampler& sampler, int maxDepth) {
+      return trace(lights, sampleLights, s, ray, sampler, maxDepth);
     };
   });
 }

@@ -1,0 +1,94 @@
+// Adaptive sampling in render(): reproducible on any thread count, stops constant pixels at the minimum count,
+// and keeps the image mean close to its expectation.
+#include "render_loop.h"
+#include "rng.h"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+using namespace raylife;
+
+namespace {
+Scene smallScene()
+{
+  return parseScene(R"({ "camera": { "eye": [0, 0, 5], "focal": [0, 0, 0], "width": 37, "height": 23 },
+                         "materials": { "m": { "type": "diffuse" } },
+                         "spheres": [ { "center": [0, 0, 0], "radius": 1, "material": "m" } ] })",
+                    "small.json");
+}
+
+// Constant on a miss (the plain background), noisy with mean 1 on the sphere: U(0, 2) in every channel.
+Color skyAndNoise(const Scene& scene, const Ray& ray, Sampler& sampler, int)
+{
+  if (!scene.intersect(ray))
+    return Color(Real(0.5));
+  return Color(2 * sampler.next1D());
+}
+} // namespace
+
+TEST_CASE("adaptive sampling gives a bit-identical image and sample counts on 1 and 2 threads")
+{
+  const Scene scene = smallScene();
+  const Camera camera = scene.makeCamera();
+  RenderSettings settings;
+  settings.spp = 256;
+  settings.seed = 5;
+  settings.pixelSampling = PixelSampling::Jittered;
+  settings.adaptive = 0.05;
+  settings.threads = 1;
+  const RenderResult one = render(scene, camera, settings, skyAndNoise);
+  settings.threads = 2;
+  const RenderResult two = render(scene, camera, settings, skyAndNoise);
+  CHECK(one.film.mean().pixels == two.film.mean().pixels);
+  CHECK(one.meanSpp == two.meanSpp);
+  bool sameCounts = true;
+  for (int y = 0; y < camera.height(); ++y)
+    for (int x = 0; x < camera.width(); ++x)
+      sameCounts = sameCounts && one.film.samples(x, y) == two.film.samples(x, y);
+  CHECK(sameCounts);
+  CHECK(one.meanSpp < 256); // it did stop some pixels
+}
+
+TEST_CASE("a pixel of constant value stops at the minimum sample count and a noisy one goes on")
+{
+  const Scene scene = smallScene();
+  const Camera camera = scene.makeCamera();
+  RenderSettings settings;
+  settings.spp = 256;
+  settings.adaptive = 0.01;
+  const RenderResult r = render(scene, camera, settings, skyAndNoise);
+  // Corner pixels miss the sphere (constant 0.5); the centre pixel sees U(0, 2), whose relative standard error
+  // 0.577/√n falls below 0.01 only after about 3300 samples: it takes all 256.
+  CHECK(r.film.samples(0, 0) == std::uint32_t(kAdaptiveMinSamples));
+  CHECK(r.film.samples(36, 22) == std::uint32_t(kAdaptiveMinSamples));
+  CHECK(r.film.samples(18, 11) == 256u);
+  CHECK(r.spp == 256);
+  CHECK(r.meanSpp > kAdaptiveMinSamples);
+  CHECK(r.meanSpp < 256);
+}
+
+TEST_CASE("the adaptive image mean stays within 2 percent of its expectation")
+{
+  // On the sphere the expectation is 1. With the threshold 0.05 each pixel's mean has a standard error of about
+  // 5 %; over the ~130 pixels on the sphere the image mean has one of about 0.45 %, so 2 % (4.5 of them) allows
+  // the noise and the stopping rule's small bias, and catches a wrong count (a sum divided by another count).
+  const Scene scene = smallScene();
+  const Camera camera = scene.makeCamera();
+  RenderSettings settings;
+  settings.spp = 1024;
+  settings.seed = 11;
+  settings.adaptive = 0.05;
+  const RenderResult r = render(scene, camera, settings, skyAndNoise);
+  const Image mean = r.film.mean();
+  double sum = 0;
+  int onSphere = 0;
+  for (int y = 0; y < mean.height; ++y)
+    for (int x = 0; x < mean.width; ++x)
+      if (mean.at(x, y, 0) != 0.5f) {
+        sum += mean.at(x, y, 0);
+        ++onSphere;
+      }
+  REQUIRE(onSphere > 50);
+  CHECK(std::abs(sum / onSphere - 1.0) < 0.02);
+}

@@ -1,0 +1,82 @@
+// The render's plan (scene_plan.h): what each scene lets a chapter skip.
+#include "light_sampling.h"
+#include "render_loop.h"
+#include "scene_plan.h"
+
+#include <catch2/catch.hpp>
+
+using namespace raylife;
+
+namespace {
+// What chapters 7 and 8 read.
+constexpr unsigned kMonteCarlo = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
+                                 kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth;
+
+Scene load(const std::string& name) { return loadScene(sceneDirectory() + "/" + name); }
+} // namespace
+
+TEST_CASE("the plan of the Cornell box - 9 spheres in a flat list and 1 emitter and glass and a black background")
+{
+  const ScenePlan plan = planScene(load("cornell.json"), kMonteCarlo);
+  CHECK(plan.spheres == 9);
+  CHECK_FALSE(plan.bvh);
+  CHECK(plan.emitters == 1);
+  CHECK(plan.pointLights == 0);
+  CHECK(plan.lightSampling());
+  CHECK_FALSE(plan.shadowRays());
+  CHECK(plan.glass);
+  CHECK(plan.backgroundBlack);
+  const std::vector<std::string> lines = describePlan(plan);
+  REQUIRE(lines.size() == 5);
+  CHECK(lines[0] == "plan: 9 spheres -> flat list (BVH from 10)");
+  CHECK(lines[1] == "plan: 1 emitter, 0 point lights -> light sampling of 1 light");
+  CHECK(lines[4] == "plan: background black -> no environment lookups");
+}
+
+TEST_CASE("the plan of the MIS scene - 5 emitters - no glass - a background that is not black")
+{
+  const ScenePlan plan = planScene(load("mis.json"), kMonteCarlo);
+  CHECK(plan.emitters == 5);
+  CHECK_FALSE(plan.glass);
+  CHECK_FALSE(plan.backgroundBlack);
+  CHECK(describePlan(plan)[3] == "plan: no glass -> no refraction");
+}
+
+TEST_CASE("the plan of the random spheres - a BVH and point lights - and of the adaptive scene - nothing to sample")
+{
+  const ScenePlan random = planScene(load("random_spheres.json"), kMonteCarlo);
+  CHECK(random.spheres == 500);
+  CHECK(random.bvh);
+  CHECK(random.pointLights == 2);
+  CHECK(random.shadowRays());
+  CHECK(describePlan(random)[0] == "plan: 500 spheres -> BVH (flat list up to 9)");
+
+  const ScenePlan sky = planScene(load("adaptive.json"), kMonteCarlo);
+  CHECK_FALSE(sky.lightSampling());
+  CHECK(describePlan(sky)[1] == "plan: 0 emitters, 0 point lights -> no light sampling (BSDF sampling only)");
+}
+
+TEST_CASE("the plan counts only what the chapter reads")
+{
+  // Chapter 4 (point lights, no emission, no glass) on the Whitted scene: its glass is shaded as diffuse.
+  const Scene whitted = load("whitted.json");
+  const ScenePlan plan = planScene(whitted, kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient);
+  CHECK(plan.pointLights == 3);
+  CHECK_FALSE(plan.glass);
+  CHECK(plan.backgroundBlack); // not read: as good as black
+  CHECK(planScene(whitted, kMonteCarlo).glass);
+  CHECK_FALSE(planScene(whitted, kMonteCarlo).backgroundBlack);
+}
+
+TEST_CASE("skipping light sampling without lights is exact - the light sampler of such a scene returns nothing")
+{
+  const Scene sky = load("adaptive.json");
+  const LightSampler lights(sky);
+  CHECK(lights.empty());
+  Sampler sampler(7, 0, 0, 0);
+  for (int i = 0; i < 1000; ++i) {
+    const Real u = sampler.next1D();
+    const Vec2 u2 = sampler.next2D();
+    CHECK_FALSE(lights.sample(Vec3(0, 0, 0), u, u2).has_value());
+  }
+}
