@@ -260,10 +260,13 @@ TEST_CASE("refraction follows Snell's law from outside and from inside")
     CHECK(std::sin(theta) == Approx(1.5 * sinT).margin(1e-6)); // η_i sinθ_i = η_t sinθ_t
     CHECK(wt->x * wo.x <= 0);                                    // the tangential part keeps its direction
     // And back out again: light going the other way, seen from inside along wt, leaves along wo.
+    // Leaving glass near the critical angle divides the rounding of cos²θ by cos²θ_o (≈ 0.005 at θ = 1.5), so
+    // the way back is good to about 200 units of rounding: 1e-6 holds in double, float needs 3e-5.
     const auto back = refract(*wt, Vec3(0, 0, 1), eta);
     REQUIRE(back);
-    CHECK(back->x == Approx(wo.x).margin(1e-6));
-    CHECK(back->z == Approx(wo.z).margin(1e-6));
+    const double margin = sizeof(Real) == 4 ? 3e-5 : 1e-6;
+    CHECK(back->x == Approx(wo.x).margin(margin));
+    CHECK(back->z == Approx(wo.z).margin(margin));
   }
 }
 
