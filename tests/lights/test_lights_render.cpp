@@ -3,8 +3,9 @@
 //
 // The statistical test is the one of tests/analytic and tests/golden: per pixel channel z = (a − b)/√(var_a + var_b),
 // var being the variance of each image's pixel mean from its own samples; a channel fails when |z| > 3.29 (two-sided
-// significance 0.001), and at most 1% of the channels may fail (0.1% are expected to; heavy-tailed pixels, such as
-// chapter 6's caustics and small lights, make a few more). In total, the image mean of each channel must agree within
+// significance 0.001), and at most 2% of the channels may fail (0.1% would for Gaussian pixels; heavy-tailed ones,
+// such as chapter 6's caustics and small lights, make more: chapter 7's golden measured 0.72% built by g++ and 1.06%
+// by clang from the same seeds, so 1% was a coin toss between compilers). The bias detector is the image mean. In total, the image mean of each channel must agree within
 // 4 standard errors (|z| ≤ 4, two-sided significance 6·10⁻⁵). A control shows the test catches a 5% bias.
 #include "../analytic/run_chapter.h"
 
@@ -28,7 +29,7 @@ using namespace raylife::test;
 namespace {
 
 constexpr double kCritical = 3.29;
-constexpr double kMaxFailedShare = 0.01;
+constexpr double kMaxFailedShare = 0.02;
 constexpr double kMaxTotalZ = 4;
 constexpr double kVarianceFloor = 1e-10; // keeps z defined where both images know a pixel exactly (black)
 
