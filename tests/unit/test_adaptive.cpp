@@ -2,22 +2,16 @@
 // and keeps the image mean close to its expectation.
 #include "render_loop.h"
 #include "rng.h"
+#include "small_scene.h"
 
 #include <catch2/catch.hpp>
 
 #include <cmath>
 
 using namespace raylife;
+using raylife::test::smallScene;
 
 namespace {
-Scene smallScene()
-{
-  return parseScene(R"({ "camera": { "eye": [0, 0, 5], "focal": [0, 0, 0], "width": 37, "height": 23 },
-                         "materials": { "m": { "type": "diffuse" } },
-                         "spheres": [ { "center": [0, 0, 0], "radius": 1, "material": "m" } ] })",
-                    "small.json");
-}
-
 // Constant on a miss (the plain background), noisy with mean 1 on the sphere: U(0, 2) in every channel.
 Color skyAndNoise(const Scene& scene, const Ray& ray, Sampler& sampler, int)
 {

@@ -1,19 +1,13 @@
 #include "render_loop.h"
 #include "rng.h"
+#include "small_scene.h"
 
 #include <catch2/catch.hpp>
 
 using namespace raylife;
+using raylife::test::smallScene;
 
 namespace {
-Scene smallScene()
-{
-  return parseScene(R"({ "camera": { "eye": [0, 0, 5], "focal": [0, 0, 0], "width": 37, "height": 23 },
-                         "materials": { "m": { "type": "diffuse" } },
-                         "spheres": [ { "center": [0, 0, 0], "radius": 1, "material": "m" } ] })",
-                    "small.json");
-}
-
 // A trace that draws several random numbers and intersects the scene: enough to show any dependence on
 // thread scheduling.
 Color noisyTrace(const Scene& scene, const Ray& ray, Sampler& sampler, int)
