@@ -61,17 +61,31 @@ std::optional<SphereRoots<T>> intersectSphereRoots(const TVec3<T>& o, const TVec
 }
 // [intersectSphereRoots]
 
-/// The nearest root of the line with the sphere inside [tmin, tmax), or nothing.
+/// The nearest root of the line with the sphere inside [tmin, tmax), or nothing. Contract: d unit length,
+/// r > 0, 0 ≤ tmin (a ray looks forward only; the bounds below rely on it).
 template <class T>
 std::optional<T> intersectSphere(const TVec3<T>& o, const TVec3<T>& d, const TVec3<T>& c, T r, T tmin, T tmax)
 {
-  // Outside the sphere (|f|² > r²) and heading away from its centre (b ≤ 0): both roots lie behind the origin
-  // (their product is |f|² − r² > 0 and their sum 2b ≤ 0), so there is nothing ahead. This rejects about half
-  // of all misses before the closest approach is formed. The same terms are computed again, and merged by the
-  // compiler, inside intersectSphereRoots.
+  // Bound the roots before solving: where no root can lie in [tmin, tmax), skip the square root and the
+  // division. With f = o − c, b = −f·d and c = |f|² − r², the roots are q = b ± √Δ and c/q, and √Δ ≤ r.
   const TVec3<T> f = o - c;
-  if (glm::dot(f, f) > r * r && glm::dot(f, d) >= 0)
+  const T ff = glm::dot(f, f);
+  const T rr = r * r;
+  const T b = -glm::dot(f, d);
+  // Outside (|f|² > r²) and heading away from the centre (b ≤ 0): both roots lie behind the origin (their
+  // product c is > 0 and their sum 2b ≤ 0). About half of all misses end here.
+  if (ff > rr && b <= 0)
     return std::nullopt;
+  // Inside (|f|² < r²), centre ahead (b > 0): the only root ahead is q = b + √Δ, which is ≥ b also after
+  // rounding, so none counts when b ≥ tmax. In a box of huge wall spheres (the Cornell box) a ray is inside every
+  // wall, and this holds for the walls behind it once a nearer hit has set tmax.
+  if (ff < rr && b >= tmax)
+    return std::nullopt;
+  // Inside, centre behind (b ≤ 0): the root ahead is c/q with c < 0 and |q| ≤ |b| + r, so it is at least
+  // (r² − |f|²)/(r − b); the margin γ(16) keeps that a lower bound of the rounded root. The far walls of the box.
+  if (ff < rr && b <= 0 && (rr - ff) * (1 - gamma<T>(16)) >= tmax * (r - b))
+    return std::nullopt;
+  // Solve (the compiler merges the terms above with the same ones inside intersectSphereRoots).
   const auto roots = intersectSphereRoots(o, d, c, r);
   if (!roots)
     return std::nullopt;

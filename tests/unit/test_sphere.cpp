@@ -1,5 +1,9 @@
 #include "scene.h"
+#include "rng.h"
 #include "sphere.h"
+
+#include <bit>
+#include <cstdint>
 
 #include <catch2/catch.hpp>
 
@@ -97,4 +101,55 @@ TEST_CASE("the hit point's error bound covers the distance to the true surface")
                                         (long double)r);
   CHECK(distance <= (long double)glm::length(hit->pointError));
   CHECK(glm::length(hit->pointError) > 0);
+}
+
+// intersectSphere skips the square root where a bound proves no root can lie in [tmin, tmax). Those skips must
+// never change an answer: compare, bit for bit, with the plain selection from intersectSphereRoots, on rays
+// inside and outside spheres from tiny to huge (the Cornell box's walls have radius 1e5), with tmax set near the
+// root itself, where a bound without its rounding margin would cut a hit.
+TEST_CASE("intersectSphere's early exits never change its answer")
+{
+  Sampler sampler(7, 0, 0, 0);
+  const auto plain = [](const Vec3& o, const Vec3& d, const Vec3& c, Real r, Real tmax) -> std::optional<Real> {
+    const auto roots = intersectSphereRoots(o, d, c, r);
+    if (!roots)
+      return std::nullopt;
+    if (roots->t0 >= 0 && roots->t0 < tmax)
+      return roots->t0;
+    if (roots->t1 >= 0 && roots->t1 < tmax)
+      return roots->t1;
+    return std::nullopt;
+  };
+  int skippedNearRoot = 0, compared = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const Real r = std::pow(Real(10), Real(-2) + 7 * sampler.next1D());
+    const Vec3 c(0);
+    // Origins from deep inside to well outside, directions uniform.
+    const Vec2 u = sampler.next2D();
+    const Real z = 1 - 2 * u.x, s = std::sqrt(std::max(Real(0), 1 - z * z)), phi = 2 * kPi * u.y;
+    const Vec3 o = r * Real(2.5) * (Vec3(sampler.next1D(), sampler.next1D(), sampler.next1D()) - Real(0.5)) * Real(2);
+    // A quarter of the rays pass through the centre, where the bounds are tight (√Δ = r) and only their
+    // rounding margin keeps them below the root.
+    Vec3 d = glm::normalize(Vec3(s * std::cos(phi), s * std::sin(phi), z));
+    if (i % 4 == 0 && glm::length(o - c) > 0)
+      d = glm::normalize((i % 8 == 0 ? c - o : o - c));
+    const auto reference = plain(o, d, c, r, kInfinity);
+    // tmax: unbounded, far, or within a few ulps either side of the root the unbounded query returns.
+    Real tmax = kInfinity;
+    const Real pick = sampler.next1D();
+    if (reference && pick < Real(0.6))
+      tmax = *reference * (1 + (pick - Real(0.3)) * 1e-14);
+    else if (pick < Real(0.8))
+      tmax = r * 3 * sampler.next1D();
+    const auto expected = plain(o, d, c, r, tmax);
+    const auto got = intersectSphere(o, d, c, r, Real(0), tmax);
+    ++compared;
+    if (reference && !expected)
+      ++skippedNearRoot;
+    REQUIRE(got.has_value() == expected.has_value());
+    if (got)
+      REQUIRE(std::bit_cast<std::uint64_t>(double(*got)) == std::bit_cast<std::uint64_t>(double(*expected)));
+  }
+  INFO(compared << " rays, " << skippedNearRoot << " with tmax just below the root");
+  CHECK(skippedNearRoot > 5000); // the interval really did cut roots close to tmax
 }
