@@ -425,6 +425,61 @@ TEST_CASE("the tree is well formed - every sphere in one leaf - every box holds 
     }
 }
 
+TEST_CASE("the wide tree holds every leaf of the built tree once - with its box - and empty slots that are empty")
+{
+  Random random(5);
+  for (const std::vector<Sphere>& spheres : {groundScene(random, 2000), uniformScene(random, 1), uniformScene(random, 3)}) {
+    const Bvh bvh(spheres);
+    const std::vector<BvhNode>& nodes = bvh.nodes();
+    const std::vector<BvhWideNode>& wide = bvh.wideNodes();
+    REQUIRE(!wide.empty());
+    // The built tree's leaves, by first primitive, with their boxes.
+    std::vector<int> leafOf(spheres.size(), -1);
+    for (std::size_t i = 0; i < nodes.size(); ++i)
+      if (nodes[i].count > 0)
+        leafOf[nodes[i].offset] = int(i);
+    std::vector<int> seen(nodes.size(), 0);
+    std::function<void(std::uint32_t, int)> walk = [&](std::uint32_t index, int level) {
+      REQUIRE(level < Bvh::kMaxDepth);
+      const BvhWideNode& n = wide[index];
+      REQUIRE(n.boxes >= (wide.size() == 1 ? 1u : 2u));
+      REQUIRE(n.boxes <= std::uint32_t(BvhWideNode::kWidth));
+      for (int k = 0; k < BvhWideNode::kWidth; ++k) {
+        if (k >= int(n.boxes)) { // an empty slot: an empty box
+          for (int a = 0; a < 3; ++a) {
+            REQUIRE(n.bound(0, a, k) == std::numeric_limits<float>::infinity());
+            REQUIRE(n.bound(1, a, k) == -std::numeric_limits<float>::infinity());
+          }
+          continue;
+        }
+        if (n.child[k] & BvhWideNode::kLeaf) { // a leaf of the built tree, with the box it had there
+          const std::uint32_t first = n.child[k] & ~BvhWideNode::kLeaf;
+          REQUIRE(first < spheres.size());
+          REQUIRE(leafOf[first] >= 0);
+          seen[std::size_t(leafOf[first])] += 1;
+          for (int a = 0; a < 3; ++a) {
+            REQUIRE(n.bound(0, a, k) == nodes[std::size_t(leafOf[first])].bounds[0][a]);
+            REQUIRE(n.bound(1, a, k) == nodes[std::size_t(leafOf[first])].bounds[1][a]);
+          }
+        } else { // an interior node, after its parent, inside the box its parent holds for it
+          REQUIRE(n.child[k] > index);
+          REQUIRE(n.child[k] < wide.size());
+          const BvhWideNode& c = wide[n.child[k]];
+          for (int j = 0; j < int(c.boxes); ++j)
+            for (int a = 0; a < 3; ++a) {
+              REQUIRE(c.bound(0, a, j) >= n.bound(0, a, k));
+              REQUIRE(c.bound(1, a, j) <= n.bound(1, a, k));
+            }
+          walk(n.child[k], level + 1);
+        }
+      }
+    };
+    walk(0, 1);
+    for (std::size_t i = 0; i < nodes.size(); ++i)
+      REQUIRE(seen[i] == (nodes[i].count > 0 ? 1 : 0));
+  }
+}
+
 TEST_CASE("the SAH builds a cheaper tree than a midpoint split on a clustered scene - and it does less work")
 {
   Random random(9);
