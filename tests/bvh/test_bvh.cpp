@@ -283,9 +283,9 @@ TEST_CASE("intervals that end just past a hit or begin exactly at one - where a 
 {
   // A sphere touches its box at six points, where the box's faces are tangent to it. A ray through one of them
   // crosses the box's face and the sphere at almost the same t; if its interval ends just past that t (entering
-  // there) or begins exactly at it (leaving there), the box test has no room to spare: an entry rounded late or
-  // an exit rounded early culls the sphere. Oblique rays (so 1/d is not exact), near the origin and far from it
-  // (where a float origin is coarse).
+  // there) or begins exactly at it (leaving there), the box test has the least room to spare: an entry rounded
+  // late or an exit rounded early may cull the sphere. Oblique rays (so 1/d is not exact), near the origin and
+  // far from it (where a float origin is coarse).
   for (const Real offset : {Real(0), Real(3e4)}) {
     Random random(19);
     std::vector<Sphere> spheres = uniformScene(random, 200);
