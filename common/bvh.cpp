@@ -3,7 +3,14 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cmath>
+#include <cstring>
 #include <limits>
+#include <type_traits>
+
+#if defined(__SSE__)
+#include <xmmintrin.h> // _mm_movemask_ps only: SSE, which every x86-64 has
+#endif
 
 namespace raylife {
 
@@ -47,8 +54,12 @@ struct BuildItem {
 // Where to split a node's items [begin, end): items [begin, mid) go to the first child, [mid, end) to the second.
 struct Split {
   std::size_t mid;
-  int axis;
 };
+
+constexpr float kInfinityF = std::numeric_limits<float>::infinity();
+
+// A built node's surface area, in scene units².
+Real nodeArea(const BvhNode& n) { return Bounds3{Vec3(n.bounds[0]), Vec3(n.bounds[1])}.surfaceArea(); }
 
 int ceilLog2(std::size_t n) { return n <= 1 ? 0 : int(std::bit_width(n - 1)); }
 
@@ -92,7 +103,6 @@ public:
       // A leaf: its spheres are items [begin, end), which is where they stay in the final order.
       nodes[nodeIndex].offset = std::uint32_t(begin);
       nodes[nodeIndex].count = std::uint16_t(end - begin);
-      nodes[nodeIndex].axis = 0;
       return;
     }
     // An interior node: the first child follows it, the second comes after the first's whole subtree.
@@ -101,7 +111,6 @@ public:
     build(split->mid, end, level + 1);
     nodes[nodeIndex].offset = std::uint32_t(second);
     nodes[nodeIndex].count = 0;
-    nodes[nodeIndex].axis = std::uint8_t(split->axis);
   }
 
   const std::vector<BuildItem>& items() const { return items_; }
@@ -132,7 +141,7 @@ private:
                        return a.centroid[axis] < b.centroid[axis] ||
                               (a.centroid[axis] == b.centroid[axis] && a.index < b.index);
                      });
-    return Split{mid, axis};
+    return Split{mid};
   }
 
   // The bad split, for comparison: the middle of the centroids' longest axis, whatever it costs.
@@ -147,7 +156,7 @@ private:
     const std::size_t mid = std::size_t(midIt - items_.begin());
     if (mid == begin || mid == end) // every centroid on one side (all equal): split by count instead
       return equalCounts(begin, end, axis);
-    return Split{mid, axis};
+    return Split{mid};
   }
 
   /// [sah]
@@ -219,7 +228,7 @@ private:
     const auto midIt = std::partition(
         items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(end),
         [&](const BuildItem& item) { return binOf(item.centroid[bestAxis], lo, extent) <= bestBin; });
-    return Split{std::size_t(midIt - items_.begin()), bestAxis};
+    return Split{std::size_t(midIt - items_.begin())};
   }
   /// [sah]
 
@@ -233,44 +242,131 @@ private:
   BvhBuildOptions options_;
 };
 
-// ---- Traversal ------------------------------------------------------------------------------------------------
+// ---- Four lanes at a time -------------------------------------------------------------------------------------
 
-// A ray prepared for box tests: 1/d per axis (±∞ where d is ±0), and per axis which corner of a box (0: lo,
-// 1: hi) holds the face the ray meets first.
+// Four floats, and four lanes' yes (all bits set) or no: GCC's vector extensions, which clang builds too. On
+// x86-64 each operation on them is one SSE instruction (the baseline, no -march flag needed), elsewhere whatever
+// the target has; the code reads as arithmetic on one float.
+typedef float Float4 __attribute__((vector_size(16)));
+typedef std::int32_t Mask4 __attribute__((vector_size(16)));
+static_assert(BvhWideNode::kWidth % 4 == 0 && BvhWideNode::kWidth < 32, "a node's boxes: whole fours, one bit each");
+
+Float4 splat(float x) { return Float4{x, x, x, x}; }
+Float4 load(const float* p) // four floats from 16-byte aligned memory
+{
+  Float4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+// The smaller (larger) per lane; where a lane of `a` is NaN, that lane of `b` (as SSE's minps and maxps do).
+Float4 min(Float4 a, Float4 b) { return a < b ? a : b; }
+Float4 max(Float4 a, Float4 b) { return a > b ? a : b; }
+// Lane k's answer as bit k.
+unsigned bitMask(Mask4 m)
+{
+#if defined(__SSE__)
+  return unsigned(_mm_movemask_ps(__m128(m)));
+#else
+  return unsigned((m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8));
+#endif
+}
+
+// ---- The box test ---------------------------------------------------------------------------------------------
+
+// Floats on either side of x, for the per-ray constants: up to an ulp and a half looser than roundDown and
+// roundUp, and without their branches. x is moved by more than the conversion to nearest can move it back (half
+// an ulp: at most |x|·2^-24 for a normal float, 2^-150 for a subnormal), with room for the double arithmetic's
+// own rounding; past the largest float, that float or ±∞, whichever is on the safe side.
+float floatBelow(Real x)
+{
+  if constexpr (std::is_same_v<Real, float>)
+    return float(x); // already a float
+  constexpr Real kFloatMax = Real(std::numeric_limits<float>::max());
+  return float(std::min(x - std::abs(x) * Real(0x1p-23) - Real(0x1p-149), kFloatMax));
+}
+float floatAbove(Real x)
+{
+  if constexpr (std::is_same_v<Real, float>)
+    return float(x);
+  constexpr Real kFloatMax = Real(std::numeric_limits<float>::max());
+  return float(std::max(x + std::abs(x) * Real(0x1p-23) + Real(0x1p-149), -kFloatMax));
+}
+
+// A ray prepared for box tests, once per query: per axis, the row of BvhWideNode::bounds holding the face the
+// ray meets first (lo for a positive direction, hi for a negative one) and the row holding the other, then the
+// origin and 1/d as entries and as exits use them, in float, four copies of each.
 struct BoxRay {
-  Vec3 origin;
-  Vec3 invDir;
-  int nearCorner[3];
+  std::size_t nearRow[3], farRow[3]; // offsets into BvhWideNode::bounds
+  Float4 originNear[3], originFar[3];
+  Float4 invNear[3], invFar[3];
+  Float4 tmin;
 };
 
 /// [slab]
-// The slab test: the ray is inside the box where it is inside all three slabs lo ≤ p ≤ hi, i.e. for t between
-// the largest entry and the smallest exit. Robust where d has a zero component: 1/d = ±∞ gives entry −∞ and
-// exit +∞ for an origin inside the slab, +∞ (a miss) outside; an origin exactly on the plane gives 0·∞ = NaN,
-// which the comparisons below ignore (the box is kept, which is safe). The interval is then widened by
-// kBoxMargin so that rounding never culls a box the ray touches.
-inline bool hitsBox(const BvhNode& node, const BoxRay& r, Real tmin, Real tmax)
+// The slab test, for four boxes at once. A box is where the ray is inside all three slabs lo ≤ p ≤ hi: for t
+// between the largest entry and the smallest exit. A direction with a zero component works out: 1/d = ±∞ gives
+// entry −∞ and exit +∞ for an origin inside the slab, entry +∞ (a miss) outside; an origin exactly on a face
+// gives 0·∞ = NaN, which min and max ignore (the box is kept, which is safe).
+//
+// It runs in float, on the float boxes, and it never culls a box the double ray touches: its interval holds the
+// exact one widened by kBoxMargin (which covers the sphere test's error at a box's face). For that, everything
+// is rounded to the safe side, so that an entry can only come out early and an exit late:
+//  - the origin towards the face: lo − o cannot grow when o is rounded up (for d > 0; the other way for d < 0);
+//  - 1/d scaled by 1 − w for entries and 1 + w for exits, w = kBoxMargin + γ(8) in float. An entry
+//    E = (lo − o)/d > 0 is rounded six times on its way (in double: 1/d, the scale 1 − w, their product; then
+//    the conversion to float, the subtraction and the product of hitsBoxes), each time by a factor at most
+//    (1 + u), and (1 + u)^6 ≤ 1 + γ(6); so it comes out at most (1 − kBoxMargin − γ(8))(1 + γ(6))·E, which is
+//    below (1 − kBoxMargin)·E. An exit likewise, the other way.
+//  - An entry at or below 0 does not matter: tmin ≥ 0 (Ray's contract), and the rounding keeps its sign.
+//    tmin itself is rounded down, and the nearest hit so far up.
+// (Gradual underflow, below 2^-126, is outside this bound, as it is outside pbrt's: no distance in a scene
+// comes near it.) So the test is wider than the exact one by some 5·10^-7 of the distance: now and then a box
+// more, never a different hit.
+BoxRay prepareBoxRay(const Ray& ray)
 {
-  // Entry and exit of each slab; the near face is lo for a positive direction, hi for a negative one.
-  const Real txNear = (Real(node.bounds[r.nearCorner[0]].x) - r.origin.x) * r.invDir.x;
-  const Real txFar = (Real(node.bounds[1 - r.nearCorner[0]].x) - r.origin.x) * r.invDir.x;
-  const Real tyNear = (Real(node.bounds[r.nearCorner[1]].y) - r.origin.y) * r.invDir.y;
-  const Real tyFar = (Real(node.bounds[1 - r.nearCorner[1]].y) - r.origin.y) * r.invDir.y;
-  const Real tzNear = (Real(node.bounds[r.nearCorner[2]].z) - r.origin.z) * r.invDir.z;
-  const Real tzFar = (Real(node.bounds[1 - r.nearCorner[2]].z) - r.origin.z) * r.invDir.z;
-  // The largest entry and the smallest exit; a NaN never wins a comparison, so it leaves the slab unbounded.
-  Real tEnter = -kInfinity;
-  tEnter = txNear > tEnter ? txNear : tEnter;
-  tEnter = tyNear > tEnter ? tyNear : tEnter;
-  tEnter = tzNear > tEnter ? tzNear : tEnter;
-  Real tExit = kInfinity;
-  tExit = txFar < tExit ? txFar : tExit;
-  tExit = tyFar < tExit ? tyFar : tExit;
-  tExit = tzFar < tExit ? tzFar : tExit;
-  // Widen for rounding (by scaling, which keeps ±∞ as they are), then intersect with the ray's own interval.
-  tEnter *= tEnter > 0 ? 1 - kBoxMargin<Real> : 1 + kBoxMargin<Real>;
-  tExit *= tExit > 0 ? 1 + kBoxMargin<Real> : 1 - kBoxMargin<Real>;
-  return (tEnter > tmin ? tEnter : tmin) <= (tExit < tmax ? tExit : tmax);
+  constexpr Real kWiden = kBoxMargin<Real> + Real(gamma<float>(8));
+  constexpr Real kFloatMax = Real(std::numeric_limits<float>::max());
+  constexpr std::size_t kRow = BvhWideNode::kWidth;
+  BoxRay r;
+  for (int a = 0; a < 3; ++a) {
+    const Real inv = Real(1) / ray.direction[a];
+    const bool negative = std::signbit(inv); // (d = −0 included: 1/d = −∞)
+    r.nearRow[a] = (3 * std::size_t(negative) + std::size_t(a)) * kRow;
+    r.farRow[a] = (3 * std::size_t(!negative) + std::size_t(a)) * kRow;
+    // A positive direction meets lo first: its entry (lo − o)/d is early when o is rounded up, its exit
+    // (hi − o)/d late when o is rounded down. A negative direction the other way round.
+    const float below = floatBelow(ray.origin[a]), above = floatAbove(ray.origin[a]);
+    r.originNear[a] = splat(negative ? below : above);
+    r.originFar[a] = splat(negative ? above : below);
+    // |1/d| made smaller for entries, larger for exits. The entries' stays finite: a float ∞ for a d too small
+    // for float would put entries too late (and d = ±0 then gives the largest float, whose entries are early
+    // enough). The exits' may overflow to ±∞, which is on the safe side.
+    r.invNear[a] = splat(float(std::clamp(inv * (1 - kWiden), -kFloatMax, kFloatMax)));
+    r.invFar[a] = splat(float(inv * (1 + kWiden)));
+  }
+  r.tmin = splat(floatBelow(ray.tmin));
+  return r;
+}
+
+// The children's boxes of `node` against the ray within [tmin, tMax], four at a time: bit k of the result is set
+// when child k's box is hit, and tEnter[k] is where the ray enters it.
+unsigned hitsBoxes(const BvhWideNode& node, const BoxRay& r, float tMax, float (&tEnter)[BvhWideNode::kWidth])
+{
+  unsigned hits = 0;
+  for (int k = 0; k < BvhWideNode::kWidth; k += 4) {
+    // Where the ray enters and leaves each slab, then the largest entry and the smallest exit (a NaN lane
+    // leaves its slab unbounded).
+    Float4 enter = r.tmin, exit = splat(tMax);
+    for (int a = 0; a < 3; ++a) {
+      const Float4 tNear = (load(node.bounds + r.nearRow[a] + k) - r.originNear[a]) * r.invNear[a];
+      const Float4 tFar = (load(node.bounds + r.farRow[a] + k) - r.originFar[a]) * r.invFar[a];
+      enter = max(tNear, enter);
+      exit = min(tFar, exit);
+    }
+    std::memcpy(&tEnter[k], &enter, sizeof enter);
+    hits |= bitMask(enter <= exit) << k;
+  }
+  return hits;
 }
 /// [slab]
 
@@ -296,9 +392,73 @@ Bvh::Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options)
   primitives_.reserve(spheres.size());
   for (const BuildItem& item : builder.items()) {
     const Sphere& s = spheres[std::size_t(item.index)];
-    primitives_.push_back(Primitive{s.center, s.radius, item.index});
+    primitives_.push_back(Primitive{s.center, s.radius, item.index, false});
   }
+
+  // The tree the queries walk: up to eight children to a node.
+  wideNodes_.reserve(nodes_.size() / 2 + 1);
+  collapse(0);
+  wideNodes_.shrink_to_fit();
 }
+
+/// [collapse]
+// Why collapse: a ray visits the nodes of a path one after the other, each visit waiting for the box test before
+// it knows where to go next, so fewer, wider nodes are faster, as long as their boxes are tested together.
+//
+// A wide node takes the place of a binary node and of up to three levels below it. It starts from the node's two
+// children and, while it has fewer than kWidth, opens the interior child with the largest box (the one a ray is
+// likeliest to enter, by the SAH's argument) into that child's two children. Returns the new node's index; its
+// interior children follow it.
+std::uint32_t Bvh::collapse(std::uint32_t node)
+{
+  constexpr int kWidth = BvhWideNode::kWidth;
+  std::uint32_t children[kWidth];
+  int n = 0;
+  if (nodes_[node].count > 0) {
+    children[n++] = node; // the whole tree is one leaf: a root with one child
+  } else {
+    children[n++] = node + 1;
+    children[n++] = nodes_[node].offset;
+    while (n < kWidth) {
+      int widest = -1;
+      Real widestArea = -1;
+      for (int k = 0; k < n; ++k)
+        if (nodes_[children[k]].count == 0 && nodeArea(nodes_[children[k]]) > widestArea) {
+          widest = k;
+          widestArea = nodeArea(nodes_[children[k]]);
+        }
+      if (widest < 0)
+        break; // every child a leaf
+      const std::uint32_t opened = children[widest];
+      children[widest] = opened + 1;
+      children[n++] = nodes_[opened].offset;
+    }
+  }
+
+  // Take the node's place before its children take theirs; fill it in once they have (the vector may move).
+  const auto index = std::uint32_t(wideNodes_.size());
+  wideNodes_.emplace_back();
+  BvhWideNode wide{};
+  wide.boxes = std::uint32_t(n);
+  for (int k = 0; k < kWidth; ++k)
+    for (int a = 0; a < 3; ++a) {
+      // The child's box, or an empty one in a slot without a child.
+      wide.bounds[a * kWidth + k] = k < n ? nodes_[children[k]].bounds[0][a] : kInfinityF;
+      wide.bounds[(3 + a) * kWidth + k] = k < n ? nodes_[children[k]].bounds[1][a] : -kInfinityF;
+    }
+  for (int k = 0; k < n; ++k) {
+    const BvhNode& child = nodes_[children[k]];
+    if (child.count > 0) {
+      wide.child[k] = BvhWideNode::kLeaf | child.offset;
+      primitives_[child.offset + child.count - 1u].lastInLeaf = true;
+    } else {
+      wide.child[k] = collapse(children[k]);
+    }
+  }
+  wideNodes_[index] = wide;
+  return index;
+}
+/// [collapse]
 
 /// [traverse]
 // (flatten: inline the sphere test into the loop, as it is in the scene's flat loop; a call per sphere costs more
@@ -306,56 +466,98 @@ Bvh::Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options)
 template <bool kAnyHit, bool kCountWork> [[gnu::flatten]] Bvh::Traversal Bvh::traverse(const Ray& ray) const
 {
   Traversal found{ray.tmax, -1, BvhWork{}};
-  if (nodes_.empty())
+  if (wideNodes_.empty())
     return found;
-  const Vec3 invDir = Real(1) / ray.direction;
-  const BoxRay boxRay{ray.origin, invDir, {int(invDir.x < 0), int(invDir.y < 0), int(invDir.z < 0)}};
+  const BoxRay boxRay = prepareBoxRay(ray);
+  // The nearest hit so far, rounded up to a float: a box the ray enters beyond it is skipped.
+  float tNearest = floatAbove(found.t);
 
-  // Depth first, from a small stack of nodes still to visit; the nearer child always first.
-  std::uint32_t stack[kMaxDepth];
+  // Depth first, from a stack of what is still to visit (at most kWidth − 1 entries per level), each entry with
+  // where the ray enters its box.
+  struct Entry {
+    std::uint32_t child; // as BvhWideNode::child
+    float tEnter;
+  };
+  Entry stack[(BvhWideNode::kWidth - 1) * kMaxDepth + 1];
   int stackSize = 0;
-  std::uint32_t current = 0;
+  std::uint32_t current = 0; // the root
   while (true) {
-    const BvhNode& node = nodes_[current];
-    if constexpr (kCountWork)
-      found.work.nodesVisited += 1;
-    // Skip the node when the ray misses its box, or meets it only beyond the nearest hit so far.
-    if (hitsBox(node, boxRay, ray.tmin, found.t)) {
-      if (node.count > 0) {
-        // A leaf: test its spheres. Keep the nearer hit, or on a tie the lower index (as the brute-force
-        // loop's strict "nearer" does), so the answer does not depend on the order of the tree.
+    if ((current & BvhWideNode::kLeaf) == 0) {
+      // An interior node: test its children's boxes together. (The mask keeps empty slots out even for a ray
+      // with a NaN in it, which "hits" every box.)
+      const BvhWideNode& node = wideNodes_[current];
+      if constexpr (kCountWork)
+        found.work.nodesVisited += node.boxes;
+      float t[BvhWideNode::kWidth];
+      unsigned hits = hitsBoxes(node, boxRay, tNearest, t) & ((1u << node.boxes) - 1);
+      if (hits != 0) {
+        // Go on to a child the ray enters and push the others. The nearer first, so that a closest-hit query
+        // finds a near hit early and then skips what lies beyond it; a shadow ray takes any blocker, and
+        // ordering does not pay for itself there. One child hit and two are the usual cases: no sorting.
+        unsigned k = unsigned(std::countr_zero(hits));
+        hits &= hits - 1;
+        if (hits == 0) {
+          current = node.child[k];
+          continue;
+        }
+        unsigned k2 = unsigned(std::countr_zero(hits));
+        hits &= hits - 1;
+        if (hits == 0) {
+          const bool swap = !kAnyHit && t[k2] < t[k];
+          const unsigned nearer = swap ? k2 : k, farther = swap ? k : k2;
+          stack[stackSize++] = Entry{node.child[farther], t[farther]};
+          current = node.child[nearer];
+          continue;
+        }
+        // Three or more: push them all, sort them by entry (nearest on top), and take the top.
+        const int first = stackSize;
+        stack[stackSize++] = Entry{node.child[k], t[k]};
+        stack[stackSize++] = Entry{node.child[k2], t[k2]};
+        for (; hits != 0; hits &= hits - 1) {
+          k = unsigned(std::countr_zero(hits));
+          stack[stackSize++] = Entry{node.child[k], t[k]};
+        }
+        if constexpr (!kAnyHit)
+          for (int i = first + 1; i < stackSize; ++i) {
+            const Entry e = stack[i];
+            int j = i;
+            for (; j > first && stack[j - 1].tEnter < e.tEnter; --j)
+              stack[j] = stack[j - 1];
+            stack[j] = e;
+          }
+        current = stack[--stackSize].child;
+        continue;
+      }
+    } else {
+      // A leaf: test its spheres. Keep the nearer hit, or on a tie the lower index (as the brute-force
+      // loop's strict "nearer" does), so the answer does not depend on the order of the tree.
+      for (std::uint32_t i = current & ~BvhWideNode::kLeaf;; ++i) {
+        const Primitive& p = primitives_[i];
         if constexpr (kCountWork)
-          found.work.primitivesTested += node.count;
-        for (std::uint32_t i = node.offset; i < node.offset + node.count; ++i) {
-          const Primitive& p = primitives_[i];
-          const std::optional<Real> t =
-              intersectSphere(ray.origin, ray.direction, p.center, p.radius, ray.tmin, ray.tmax);
-          if (!t)
-            continue;
+          found.work.primitivesTested += 1;
+        const std::optional<Real> t =
+            intersectSphere(ray.origin, ray.direction, p.center, p.radius, ray.tmin, ray.tmax);
+        if (t) {
           if constexpr (kAnyHit)
             return Traversal{*t, p.index, found.work}; // a shadow ray needs no more than one blocker
           if (*t < found.t || (*t == found.t && p.index < found.primitive)) {
             found.t = *t;
             found.primitive = p.index;
+            tNearest = floatAbove(found.t);
           }
         }
-      } else {
-        // An interior node: go on to the child on the ray's side of the split; remember the other.
-        if (boxRay.nearCorner[node.axis]) {
-          stack[stackSize++] = current + 1;
-          current = node.offset;
-        } else {
-          stack[stackSize++] = node.offset;
-          current = current + 1;
-        }
-        continue;
+        if (p.lastInLeaf)
+          break;
       }
     }
-    if (stackSize == 0)
-      break;
-    current = stack[--stackSize];
+    // Next from the stack, skipping what the ray enters only beyond a hit found since it was pushed.
+    do {
+      if (stackSize == 0)
+        return found;
+      --stackSize;
+    } while (stack[stackSize].tEnter > tNearest);
+    current = stack[stackSize].child;
   }
-  return found;
 }
 /// [traverse]
 
@@ -387,13 +589,10 @@ Real Bvh::sahCost(const BvhCosts& costs) const
 {
   if (nodes_.empty())
     return 0;
-  auto area = [](const BvhNode& n) {
-    return Bounds3{Vec3(n.bounds[0]), Vec3(n.bounds[1])}.surfaceArea();
-  };
-  const Real rootArea = area(nodes_[0]);
+  const Real rootArea = nodeArea(nodes_[0]);
   Real cost = 0;
   for (const BvhNode& n : nodes_) {
-    const Real share = rootArea > 0 ? area(n) / rootArea : Real(1);
+    const Real share = rootArea > 0 ? nodeArea(n) / rootArea : Real(1);
     cost += n.count > 0 ? share * Real(n.count) * costs.intersection : share * costs.traversal;
   }
   return cost;

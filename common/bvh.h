@@ -1,6 +1,7 @@
 /// @file bvh.h
-/// @brief A bounding volume hierarchy over spheres: built with the binned surface area heuristic, flattened into
-/// a compact array, traversed front to back; closest-hit and any-hit (shadow ray) queries.
+/// @brief A bounding volume hierarchy over spheres: built with the binned surface area heuristic, collapsed to
+/// eight children per node, traversed front to back with the children's boxes tested in float four at a time;
+/// closest-hit and any-hit (shadow ray) queries.
 ///
 /// The idea. Testing a ray against every sphere costs N sphere tests. Group the spheres into boxes, the boxes
 /// into bigger boxes, up to one box around everything: a ray that misses a box skips everything inside it, so a
@@ -8,8 +9,9 @@
 ///
 /// The contract that makes it safe to use everywhere: a query returns exactly what the brute-force loop over the
 /// same spheres returns (the same sphere, the same t to the last bit, ties between spheres at the same t going
-/// to the lowest index as the loop's strict "nearer" does). Boxes are widened by kBoxMargin so that rounding in
-/// the box test can never cull a sphere the loop would hit. tests/bvh checks this on millions of rays.
+/// to the lowest index as the loop's strict "nearer" does). Boxes are widened by kBoxMargin, and the float box
+/// test rounds everything to the safe side, so that rounding can never cull a sphere the loop would hit.
+/// tests/bvh checks this on millions of rays.
 #pragma once
 
 #include "math.h"
@@ -39,19 +41,42 @@ struct Bounds3 {
   }
 };
 
-/// One node of the flattened tree: 32 bytes, so two share a 64-byte cache line.
+/// One node of the tree as the builder makes it (binary): 32 bytes, so two share a 64-byte cache line.
 ///
 /// The nodes are stored depth first: an interior node's first child is the next node in the array and
 /// `offset` is the index of its second child; a leaf's spheres are primitives [offset, offset + count).
 /// Bounds are float, rounded outwards from the scene's scalar, so they hold everything the exact box holds.
 struct alignas(32) BvhNode {
-  glm::vec3 bounds[2];   ///< Box: [0] its smallest corner (rounded down), [1] its largest (rounded up).
-  std::uint32_t offset;  ///< Leaf: first primitive. Interior: index of the second child.
-  std::uint16_t count;   ///< Leaf: number of primitives, ≥ 1. Interior: 0.
-  std::uint8_t axis;     ///< Interior: the split axis (0 x, 1 y, 2 z), for visiting the nearer child first.
-  std::uint8_t pad = 0;  ///< Unused; keeps the node 32 bytes and its bytes defined (builds compare equal).
+  glm::vec3 bounds[2];    ///< Box: [0] its smallest corner (rounded down), [1] its largest (rounded up).
+  std::uint32_t offset;   ///< Leaf: first primitive. Interior: index of the second child.
+  std::uint16_t count;    ///< Leaf: number of primitives, ≥ 1. Interior: 0.
+  std::uint16_t pad = 0;  ///< Unused; keeps the node 32 bytes and its bytes defined (builds compare equal).
 };
 static_assert(sizeof(BvhNode) == 32, "a BvhNode is meant to be 32 bytes");
+
+/// One node of the tree the queries walk: the binary tree collapsed so that a node holds up to eight
+/// children, whose boxes are tested together, four at a time. 256 bytes: four cache lines.
+///
+/// The boxes are stored by coordinate: row 3·face + axis (face 0 lo, 1 hi; axis 0 x, 1 y, 2 z) holds that
+/// coordinate of all the children's boxes side by side, so that four boxes' worth is one load. A slot without
+/// a child holds an empty box (lo = +∞, hi = −∞). The boxes are BvhNode's, unchanged.
+struct alignas(64) BvhWideNode {
+  /// Most children a node holds (a multiple of four).
+  static constexpr int kWidth = 8;
+  /// Set in `child` for a leaf.
+  static constexpr std::uint32_t kLeaf = 0x80000000u;
+
+  float bounds[6 * kWidth]; ///< Child k's box: coordinate (face, axis) at [(3·face + axis)·kWidth + k].
+  /// Per child: an interior child's index in Bvh::wideNodes(), or kLeaf | the index of a leaf's first
+  /// primitive (a leaf's primitives lie side by side). 0 in an empty slot.
+  std::uint32_t child[kWidth];
+  std::uint32_t boxes;       ///< Children, in slots [0, boxes): 2 to kWidth (1 in the root of a one-leaf tree).
+  std::uint32_t pad[7] = {}; ///< Unused; keeps the node 256 bytes and its bytes defined.
+
+  /// Child k's box: its smallest (face 0) or largest (face 1) coordinate on `axis` (0 x, 1 y, 2 z).
+  float bound(int face, int axis, int k) const { return bounds[(3 * face + axis) * kWidth + k]; }
+};
+static_assert(sizeof(BvhWideNode) == 256, "a BvhWideNode is meant to be 256 bytes");
 
 /// How the builder chooses where to split a node's spheres.
 enum class BvhSplit {
@@ -95,7 +120,7 @@ struct BvhHit {
 /// A closest-hit query's answer with the work it took.
 struct BvhTracedHit {
   std::optional<BvhHit> hit; ///< As Bvh::intersect.
-  BvhWork work;              ///< Nodes visited and spheres tested.
+  BvhWork work;              ///< Boxes and spheres tested.
 };
 
 /// An any-hit query's answer with the work it took.
@@ -118,11 +143,11 @@ public:
 
   /// The nearest sphere hit inside [ray.tmin, ray.tmax), exactly as the brute-force loop finds it: for every
   /// sphere its first root in the interval (intersectSphere), and of those the smallest t, the lowest index on
-  /// a tie. Nothing when no sphere is hit.
+  /// a tie. Nothing when no sphere is hit. As Ray requires, ray.tmin ≥ 0 (the box test relies on it).
   std::optional<BvhHit> intersect(const Ray& ray) const;
 
   /// True when any sphere is hit inside [ray.tmin, ray.tmax): the shadow-ray query. Stops at the first sphere
-  /// found, so it is cheaper than intersect; it is true exactly when intersect finds a hit.
+  /// found, so it is cheaper than intersect; it is true exactly when intersect finds a hit. ray.tmin ≥ 0.
   bool occluded(const Ray& ray) const;
 
   /// intersect, also counting the work (for heat maps; the plain query pays nothing for the counting).
@@ -132,8 +157,11 @@ public:
 
   /// Spheres the tree was built over (0 for an empty tree).
   std::size_t primitiveCount() const { return primitives_.size(); }
-  /// The flattened nodes, root first (empty for an empty tree).
+  /// The tree as built (binary), root first (empty for an empty tree).
   const std::vector<BvhNode>& nodes() const { return nodes_; }
+  /// The tree the queries walk (up to BvhWideNode::kWidth children per node), root first, every node before
+  /// its children (empty for an empty tree).
+  const std::vector<BvhWideNode>& wideNodes() const { return wideNodes_; }
   /// Deepest level of the tree (the root is level 1; 0 for an empty tree). Always below kMaxDepth.
   int depth() const { return depth_; }
 
@@ -142,7 +170,7 @@ public:
   /// Lower is better; compares trees built over the same spheres.
   Real sahCost(const BvhCosts& costs = {}) const;
 
-  /// Deepest tree the builder makes: the traversal's stack holds this many nodes.
+  /// Deepest tree the builder makes (the wide tree is never deeper): it bounds the traversal's stack.
   static constexpr int kMaxDepth = 64;
 
 private:
@@ -151,6 +179,7 @@ private:
     Vec3 center;
     Real radius;
     int index;
+    bool lastInLeaf; // its leaf's primitives end here
   };
 
   /// What one traversal found: the nearest hit (closest-hit) or any hit (any-hit), and the work if counted.
@@ -160,8 +189,10 @@ private:
     BvhWork work;  // zero unless counted
   };
   template <bool kAnyHit, bool kCountWork> Traversal traverse(const Ray& ray) const;
+  std::uint32_t collapse(std::uint32_t node);
 
   std::vector<BvhNode> nodes_;
+  std::vector<BvhWideNode> wideNodes_;
   std::vector<Primitive> primitives_;
   int depth_ = 0;
 };

@@ -279,6 +279,82 @@ TEST_CASE("ties at the same t go to the lowest index as in the brute-force loop"
   }
 }
 
+TEST_CASE("intervals that end just past a hit or begin exactly at one - where a sphere touches its box")
+{
+  // A sphere touches its box at six points, where the box's faces are tangent to it. A ray through one of them
+  // crosses the box's face and the sphere at almost the same t; if its interval ends just past that t (entering
+  // there) or begins exactly at it (leaving there), the box test has the least room to spare: an entry rounded
+  // late or an exit rounded early may cull the sphere. Oblique rays (so 1/d is not exact), near the origin and
+  // far from it (where a float origin is coarse).
+  for (const Real offset : {Real(0), Real(3e4)}) {
+    Random random(19);
+    std::vector<Sphere> spheres = uniformScene(random, 200);
+    for (Sphere& s : spheres)
+      s.center += Vec3(offset, -offset, offset);
+    const Bvh bvh(spheres);
+    std::size_t checked = 0;
+    for (int i = 0; i < 40000; ++i) {
+      const Sphere& s = spheres[random.index(spheres.size())];
+      const int axis = int(random.index(3));
+      const Real side = random.index(2) ? 1 : -1;
+      Vec3 touch = s.center;
+      touch[axis] += side * s.radius;
+      Vec3 d = random.direction();
+      d[axis] = -side * std::max(std::abs(d[axis]), Real(0.2)); // inwards through the touching point
+      d = glm::normalize(d);
+      Ray ray{touch - d * random.uniform(Real(0.5), 20), d};
+      const bool entering = random.index(2) == 0;
+      if (!entering) // from inside (somewhere along the chord d cuts), leaving through the touching point
+        ray = Ray{touch + d * (2 * s.radius * std::abs(d[axis]) * random.uniform(Real(0.1), Real(0.9))), -d};
+      const std::optional<SphereRoots<Real>> roots = intersectSphereRoots(ray.origin, ray.direction, s.center, s.radius);
+      if (!roots || (entering ? roots->t0 : roots->t1) < 0)
+        continue;
+      if (entering)
+        ray.tmax = nextUp(roots->t0); // the interval ends just past the entry
+      else
+        ray.tmin = roots->t1; // it begins exactly at the exit
+      const std::optional<Reference> expected = bruteForce(spheres, ray);
+      const std::optional<BvhHit> got = bvh.intersect(ray);
+      INFO(describe(ray));
+      REQUIRE(expected.has_value() == got.has_value());
+      if (expected) {
+        REQUIRE(got->primitive == expected->sphere);
+        REQUIRE(std::memcmp(&got->t, &expected->t, sizeof(Real)) == 0);
+      }
+      REQUIRE(bvh.occluded(ray) == expected.has_value());
+      checked += expected.has_value();
+    }
+    CHECK(checked > 30000); // the rays do hit, at the touching point or (rarely) a neighbour in front of it
+  }
+
+  // Leaving from the origin of coordinates, inside every sphere: a float origin there is exact, so no rounding
+  // of it leaves the box test room to spare either.
+  Random random(23);
+  std::vector<Sphere> spheres;
+  for (int i = 0; i < 300; ++i) {
+    const Vec3 c = random.inBox(-1, 1);
+    spheres.push_back(Sphere{c, glm::length(c) + random.uniform(Real(0.01), 10), 0});
+  }
+  const Bvh bvh(spheres);
+  for (const Sphere& s : spheres)
+    for (int face = 0; face < 6; ++face) {
+      Vec3 touch = s.center;
+      touch[face % 3] += face < 3 ? -s.radius : s.radius;
+      Ray ray{Vec3(0), glm::normalize(touch)};
+      const std::optional<SphereRoots<Real>> roots = intersectSphereRoots(ray.origin, ray.direction, s.center, s.radius);
+      REQUIRE(roots);
+      ray.tmin = roots->t1;
+      const std::optional<Reference> expected = bruteForce(spheres, ray);
+      INFO(describe(ray));
+      REQUIRE(expected);
+      const std::optional<BvhHit> got = bvh.intersect(ray);
+      REQUIRE(got);
+      REQUIRE(got->primitive == expected->sphere);
+      REQUIRE(std::memcmp(&got->t, &expected->t, sizeof(Real)) == 0);
+      REQUIRE(bvh.occluded(ray));
+    }
+}
+
 TEST_CASE("the any-hit query agrees with the closest hit about occlusion inside the interval")
 {
   // Shadow-ray-like rays: bounded by the distance to a point, from just off a surface.
@@ -349,6 +425,61 @@ TEST_CASE("the tree is well formed - every sphere in one leaf - every box holds 
     }
 }
 
+TEST_CASE("the wide tree holds every leaf of the built tree once - with its box - and empty slots that are empty")
+{
+  Random random(5);
+  for (const std::vector<Sphere>& spheres : {groundScene(random, 2000), uniformScene(random, 1), uniformScene(random, 3)}) {
+    const Bvh bvh(spheres);
+    const std::vector<BvhNode>& nodes = bvh.nodes();
+    const std::vector<BvhWideNode>& wide = bvh.wideNodes();
+    REQUIRE(!wide.empty());
+    // The built tree's leaves, by first primitive, with their boxes.
+    std::vector<int> leafOf(spheres.size(), -1);
+    for (std::size_t i = 0; i < nodes.size(); ++i)
+      if (nodes[i].count > 0)
+        leafOf[nodes[i].offset] = int(i);
+    std::vector<int> seen(nodes.size(), 0);
+    std::function<void(std::uint32_t, int)> walk = [&](std::uint32_t index, int level) {
+      REQUIRE(level < Bvh::kMaxDepth);
+      const BvhWideNode& n = wide[index];
+      REQUIRE(n.boxes >= (wide.size() == 1 ? 1u : 2u));
+      REQUIRE(n.boxes <= std::uint32_t(BvhWideNode::kWidth));
+      for (int k = 0; k < BvhWideNode::kWidth; ++k) {
+        if (k >= int(n.boxes)) { // an empty slot: an empty box
+          for (int a = 0; a < 3; ++a) {
+            REQUIRE(n.bound(0, a, k) == std::numeric_limits<float>::infinity());
+            REQUIRE(n.bound(1, a, k) == -std::numeric_limits<float>::infinity());
+          }
+          continue;
+        }
+        if (n.child[k] & BvhWideNode::kLeaf) { // a leaf of the built tree, with the box it had there
+          const std::uint32_t first = n.child[k] & ~BvhWideNode::kLeaf;
+          REQUIRE(first < spheres.size());
+          REQUIRE(leafOf[first] >= 0);
+          seen[std::size_t(leafOf[first])] += 1;
+          for (int a = 0; a < 3; ++a) {
+            REQUIRE(n.bound(0, a, k) == nodes[std::size_t(leafOf[first])].bounds[0][a]);
+            REQUIRE(n.bound(1, a, k) == nodes[std::size_t(leafOf[first])].bounds[1][a]);
+          }
+        } else { // an interior node, after its parent, inside the box its parent holds for it
+          REQUIRE(n.child[k] > index);
+          REQUIRE(n.child[k] < wide.size());
+          const BvhWideNode& c = wide[n.child[k]];
+          for (int j = 0; j < int(c.boxes); ++j)
+            for (int a = 0; a < 3; ++a) {
+              REQUIRE(c.bound(0, a, j) >= n.bound(0, a, k));
+              REQUIRE(c.bound(1, a, j) <= n.bound(1, a, k));
+            }
+          walk(n.child[k], level + 1);
+        }
+      }
+    };
+    walk(0, 1);
+    for (std::size_t i = 0; i < nodes.size(); ++i)
+      REQUIRE(seen[i] == (nodes[i].count > 0 ? 1 : 0));
+  }
+}
+
 TEST_CASE("the SAH builds a cheaper tree than a midpoint split on a clustered scene - and it does less work")
 {
   Random random(9);
@@ -391,6 +522,38 @@ TEST_CASE("an empty tree misses everything")
   CHECK_FALSE(empty.intersect(Ray{}));
   CHECK_FALSE(empty.occluded(Ray{}));
   CHECK(empty.primitiveCount() == 0);
+}
+
+TEST_CASE("rays with a NaN or an infinity in them get what the brute-force loop gives")
+{
+  // Outside Ray's contract, but such a ray must not hang or crash the traversal: a NaN makes every box test
+  // pass, and the tree must then visit only real children, not the empty slots of its nodes.
+  Random random(29);
+  const std::vector<Sphere> spheres = uniformScene(random, 100);
+  const Bvh bvh(spheres);
+  const Real nan = std::numeric_limits<Real>::quiet_NaN();
+  std::vector<Ray> rays;
+  for (int c = 0; c < 8; ++c) {
+    Ray ray{random.inBox(-12, 12), random.direction()};
+    if (c < 3)
+      ray.origin[c] = nan;
+    else if (c < 6)
+      ray.direction[c - 3] = nan;
+    else if (c == 6)
+      ray.tmax = nan;
+    else
+      ray.origin = Vec3(kInfinity, -kInfinity, kInfinity);
+    rays.push_back(ray);
+  }
+  for (const Ray& ray : rays) {
+    INFO(describe(ray));
+    const std::optional<Reference> expected = bruteForce(spheres, ray);
+    const std::optional<BvhHit> got = bvh.intersect(ray);
+    REQUIRE(got.has_value() == expected.has_value());
+    if (expected)
+      CHECK(got->primitive == expected->sphere);
+    CHECK(bvh.occluded(ray) == expected.has_value());
+  }
 }
 
 TEST_CASE("the scene uses the BVH above the threshold - the loop below it or when stale - with identical hits")

@@ -161,7 +161,7 @@ int main(int argc, char** argv)
                   s.bvhClosest / s.flatClosest);
       std::printf("any hit:     flat %.3f Mrays/s, BVH %.3f Mrays/s, BVH/flat %.1f\n", s.flatAny, s.bvhAny,
                   s.bvhAny / s.flatAny);
-      // The work behind those figures: boxes and spheres tested per ray.
+      // The work behind those figures: boxes (a node's eight count as eight) and spheres tested per ray.
       BvhWork camera, shadow;
       for (const Ray& ray : rays.camera)
         camera = camera + tree.intersectWithWork(ray).work;
@@ -172,9 +172,11 @@ int main(int argc, char** argv)
                   double(camera.primitivesTested) / double(rays.camera.size()),
                   double(shadow.nodesVisited) / double(std::max<std::size_t>(1, rays.shadow.size())),
                   double(shadow.primitivesTested) / double(std::max<std::size_t>(1, rays.shadow.size())));
-      std::printf("tree: %zu nodes (%zu bytes), depth %d, SAH cost %.2f\n", tree.accelerator.nodes().size(),
-                  tree.accelerator.nodes().size() * sizeof(BvhNode), tree.accelerator.depth(),
-                  double(tree.accelerator.sahCost()));
+      std::printf("tree: %zu nodes (%zu bytes), depth %d, SAH cost %.2f; walked as %zu nodes of up to %d children "
+                  "(%zu bytes)\n",
+                  tree.accelerator.nodes().size(), tree.accelerator.nodes().size() * sizeof(BvhNode),
+                  tree.accelerator.depth(), double(tree.accelerator.sahCost()), tree.accelerator.wideNodes().size(),
+                  BvhWideNode::kWidth, tree.accelerator.wideNodes().size() * sizeof(BvhWideNode));
     } else if (mode == "crossover") {
       // The N spheres nearest the focal point, the ground (the largest sphere) always first.
       std::vector<Sphere> ordered = scene.spheres;
