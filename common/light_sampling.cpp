@@ -77,13 +77,24 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Ve
 }
 // [sample]
 
+// [visibleImpl]
 bool lightVisible(const Scene& scene, const Hit& hit, const LightSample& ls)
 {
   if (ls.delta)
     return !scene.occluded(spawnRayTo(hit, ls.target));
-  const std::optional<Hit> seen = scene.intersect(spawnRay(hit, ls.wi));
-  return seen && seen->sphere == ls.sphere;
+  // Where the shadow ray first meets the light, from the ray's own origin (the sphere test Scene::intersect makes).
+  // Nowhere ahead: the direction leaves the light's own surface, or grazes past its edge by rounding.
+  Ray ray = spawnRay(hit, ls.wi);
+  const Sphere& light = scene.spheres[std::size_t(ls.sphere)];
+  const std::optional<Real> t =
+      intersectSphere(ray.origin, ray.direction, light.center, light.radius, ray.tmin, ray.tmax);
+  if (!t)
+    return false;
+  // Nothing may be met before it: an any-hit query over [0, t), which the light's own root t does not enter.
+  ray.tmax = *t;
+  return !scene.occluded(ray);
 }
+// [visibleImpl]
 
 Real LightSampler::pdf(const Vec3& ref, int sphere) const
 {

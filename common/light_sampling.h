@@ -135,12 +135,15 @@ private:
 // [visible]
 /// True when light sample `ls`, taken at the hit `hit`, is not blocked: the light is what the shadow ray sees.
 ///
-/// For an emissive sphere the shadow ray is traced like any other ray, and the sample is visible when the first
-/// sphere it hits is the sampled light. That is exactly the event in which a BSDF-sampled ray in the same direction
-/// would have found the light, so the two strategies agree on every direction (MIS needs that), the light never
-/// blocks itself, and a point on or inside the light is handled without a tolerance (a direction leaving the
-/// light's own surface outwards finds something else, or nothing). For a point light, a shadow ray that stops just
-/// short of it (spawnRayTo) must hit nothing.
+/// For an emissive sphere the sample is visible when the first sphere the shadow ray meets is the sampled light.
+/// That is exactly the event in which a BSDF-sampled ray in the same direction would have found the light, so the
+/// two strategies agree on every direction (MIS needs that), the light never blocks itself, and a point on or
+/// inside the light is handled without a tolerance (a direction leaving the light's own surface outwards never
+/// meets it). It is tested without a closest-hit query: first where the ray meets the light (one sphere test, from
+/// the ray's own origin), then an any-hit query (Scene::occluded) over [0, that distance), which stops at the first
+/// blocker and builds no hit record. The answer is the closest-hit query's (only a tie, another sphere met at
+/// exactly the same distance, could differ), so images stay the same bit for bit. For a point light, a shadow ray
+/// that stops just short of it (spawnRayTo) must hit nothing.
 bool lightVisible(const Scene& scene, const Hit& hit, const LightSample& ls);
 // [visible]
 

@@ -12,6 +12,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 using namespace raylife;
@@ -219,6 +220,75 @@ TEST_CASE("lights are chosen in proportion to their power and the pdf for a dire
     chi2 += (count[k] - n * p[k]) * (count[k] - n * p[k]) / (n * p[k]);
   INFO("counts " << count[0] << ", " << count[1] << ", " << count[2] << ": chi2 = " << chi2);
   CHECK(chi2 < 9.21);
+}
+
+// ---- Visibility of a light sample -------------------------------------------------------------------------------
+
+namespace {
+
+// A room (the inside of a large sphere) with two lamps that also reflect (so points on a lamp are shaded, and some of
+// their light samples leave the lamp's own surface) and blockers between them; `extra` small blockers more. Above
+// kFlatListMaxSpheres spheres the scene is searched through its BVH.
+Scene visibilityScene(int extra)
+{
+  std::string spheres = R"({ "center": [0, 0, 0], "radius": 50, "material": "wall" },
+      { "center": [0, 8, 0], "radius": 2, "material": "lamp" },
+      { "center": [6, 3, 2], "radius": 0.5, "material": "lamp" },
+      { "center": [0, 3, 0], "radius": 1.5, "material": "wall" },
+      { "center": [-2, 5, 1], "radius": 1, "material": "wall" })";
+  for (int i = 0; i < extra; ++i)
+    spheres += ", { \"center\": [" + std::to_string(-6 + 2 * i) + ", " + std::to_string(1 + (i % 3) * 2) +
+               ", -1], \"radius\": 0.6, \"material\": \"wall\" }";
+  return parseScene(R"({
+    "camera": { "eye": [0, 0, 30], "focal": [0, 0, 0], "up": [0, 1, 0], "vfov": 40, "width": 8, "height": 8 },
+    "materials": { "wall": { "type": "diffuse", "color": [0.5, 0.5, 0.5] },
+                   "lamp": { "type": "diffuse", "color": [0.5, 0.5, 0.5], "emission": [4, 4, 4] } },
+    "spheres": [ )" + spheres + R"( ] })",
+                    "visibility");
+}
+
+} // namespace
+
+TEST_CASE("a light sample is visible exactly when the first sphere its shadow ray meets is the light")
+{
+  // lightVisible answers with a sphere test and an any-hit query; its definition is the closest-hit query below (what
+  // a BSDF-sampled ray in that direction would find, which chapter 8's weights rely on). Shaded points are where
+  // random rays from random points of the room (some inside a lamp) first hit something: walls, blockers, and the
+  // lamps themselves from outside and inside. The two must agree on every sample (only an exact tie of distances
+  // could part them). The control is the shortcut of an any-hit query straight towards the sampled point on the
+  // light: from a point on a lamp, a direction that leaves its surface outwards has its "point on the light" at the
+  // shaded point itself, so nothing blocks it, though the ray never meets the light. It must disagree, and does.
+  for (const int extra : {0, 8}) {
+    const Scene scene = visibilityScene(extra);
+    REQUIRE(scene.usesAccelerator() == (extra > 0));
+    const LightSampler lights(scene);
+    Sampler rng(41, extra, 0, 0);
+    int visible = 0, blocked = 0, onLamp = 0, disagree = 0, shortcutWrong = 0;
+    for (int i = 0; i < 100000; ++i) {
+      const bool insideLamp = i % 10 == 0;
+      const Vec3 from = insideLamp ? Vec3(0, 8, 0) + Real(1.9) * sampleUniformSphere(rng.next2D()) * rng.next1D()
+                                   : Vec3(rng.next1D() * 20 - 10, rng.next1D() * 20 - 10, rng.next1D() * 20 - 10);
+      const std::optional<Hit> hit = scene.intersect(Ray{from, sampleUniformSphere(rng.next2D()), 0, kInfinity});
+      REQUIRE(hit);
+      const std::optional<LightSample> ls = lights.sample(hit->point, rng.next1D(), rng.next2D());
+      REQUIRE(ls);
+      const std::optional<Hit> seen = scene.intersect(spawnRay(*hit, ls->wi));
+      const bool expected = seen && seen->sphere == ls->sphere;
+      const bool got = lightVisible(scene, *hit, *ls);
+      disagree += got != expected;
+      (expected ? visible : blocked)++;
+      onLamp += scene.materials[std::size_t(hit->material)].isEmissive();
+      shortcutWrong += !scene.occluded(spawnRayTo(*hit, ls->target)) != expected;
+    }
+    INFO(extra << " extra blockers: " << visible << " visible, " << blocked << " blocked, " << onLamp
+               << " shaded points on a lamp; " << disagree << " disagreements; the shortcut wrong " << shortcutWrong
+               << " times");
+    CHECK(disagree == 0);
+    CHECK(visible > 10000);
+    CHECK(blocked > 5000);
+    CHECK(onLamp > 5000);
+    CHECK(shortcutWrong > 100); // the control
+  }
 }
 
 TEST_CASE("a scene without lights has nothing to sample")
