@@ -138,7 +138,7 @@ TEST_CASE("intersectSphere's early exits never change its answer")
     Real tmax = kInfinity;
     const Real pick = sampler.next1D();
     if (reference && pick < Real(0.6))
-      tmax = *reference * (1 + (pick - Real(0.3)) * 1e-14);
+      tmax = *reference * (1 + (pick - Real(0.3)) * Real(1e-14));
     else if (pick < Real(0.8))
       tmax = r * 3 * sampler.next1D();
     const auto expected = plain(o, d, c, r, tmax);
