@@ -57,19 +57,18 @@ template <class T> TVec3<T> sampleSphereCone(const TVec3<T>& ref, const TVec3<T>
 {
   const TVec3<T> toCentre = c - ref;
   const T d2 = glm::dot(toCentre, toCentre);
-  const T twoPi = 2 * std::numbers::pi_v<T>;
   // Inside or on the light: every direction sees it, so sample them all (pdf 1/(4π)).
   if (d2 <= r * r) {
     const T z = 1 - 2 * u.x;
     const T s = std::sqrt(std::max(T(0), (1 - z) * (1 + z)));
-    const T phi = twoPi * u.y;
-    return TVec3<T>(s * std::cos(phi), s * std::sin(phi), z);
+    const SinCos<T> phi = sinCos2Pi(u.y);
+    return TVec3<T>(s * phi.cos, s * phi.sin, z);
   }
   // Uniform in the cone: 1 − cosθ = u·(1 − cosθmax), and sin²θ = (1 − cosθ)(1 + cosθ) with no cancellation.
   const T oneMinusCos = u.x * oneMinusCosConeAngle(r * r / d2);
   const T cosTheta = 1 - oneMinusCos;
   const T sinTheta = std::sqrt(std::max(T(0), oneMinusCos * (2 - oneMinusCos)));
-  const T phi = twoPi * u.y;
+  const SinCos<T> phi = sinCos2Pi(u.y);
   // Build the direction in a frame around the axis towards the centre (Duff et al., as in frame.h).
   const TVec3<T> n = toCentre / std::sqrt(d2);
   const T sign = std::copysign(T(1), n.z);
@@ -77,7 +76,7 @@ template <class T> TVec3<T> sampleSphereCone(const TVec3<T>& ref, const TVec3<T>
   const T b = n.x * n.y * a;
   const TVec3<T> s(1 + sign * n.x * n.x * a, sign * b, -sign * n.x);
   const TVec3<T> t(b, sign + n.y * n.y * a, -n.y);
-  return glm::normalize(sinTheta * std::cos(phi) * s + sinTheta * std::sin(phi) * t + cosTheta * n);
+  return glm::normalize(sinTheta * phi.cos * s + sinTheta * phi.sin * t + cosTheta * n);
 }
 
 // [cone]

@@ -18,8 +18,8 @@ inline Vec3 sampleUniformSphere(Vec2 u)
 {
   const Real z = 1 - 2 * u.x;
   const Real r = std::sqrt(std::max(Real(0), 1 - z * z));
-  const Real phi = 2 * kPi * u.y;
-  return Vec3(r * std::cos(phi), r * std::sin(phi), z);
+  const SinCos<Real> phi = sinCos2Pi(u.y);
+  return Vec3(r * phi.cos, r * phi.sin, z);
 }
 
 /// The pdf of sampleUniformSphere: 1/(4π) per steradian everywhere.
@@ -30,8 +30,8 @@ inline Vec3 sampleUniformHemisphere(Vec2 u)
 {
   const Real z = u.x;
   const Real r = std::sqrt(std::max(Real(0), 1 - z * z));
-  const Real phi = 2 * kPi * u.y;
-  return Vec3(r * std::cos(phi), r * std::sin(phi), z);
+  const SinCos<Real> phi = sinCos2Pi(u.y);
+  return Vec3(r * phi.cos, r * phi.sin, z);
 }
 
 /// The pdf of sampleUniformHemisphere: 1/(2π) per steradian on z ≥ 0, and 0 below.
@@ -43,8 +43,8 @@ inline Real uniformHemispherePdf(const Vec3& w) { return w.z >= 0 ? 1 / (2 * kPi
 inline Vec3 sampleCosineHemisphere(Vec2 u)
 {
   const Real r = std::sqrt(u.x);
-  const Real phi = 2 * kPi * u.y;
-  return Vec3(r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(Real(0), 1 - u.x)));
+  const SinCos<Real> phi = sinCos2Pi(u.y);
+  return Vec3(r * phi.cos, r * phi.sin, std::sqrt(std::max(Real(0), 1 - u.x)));
 }
 
 /// The pdf of sampleCosineHemisphere: cosθ/π per steradian on z ≥ 0, and 0 below.
@@ -59,8 +59,8 @@ inline Vec3 samplePhongLobe(Vec2 u, Real exponent)
   // Invert the cdf of cosα, 1 − cos^(n+1)α, and choose the azimuth uniformly.
   const Real cosAlpha = std::pow(1 - u.x, 1 / (exponent + 1));
   const Real sinAlpha = std::sqrt(std::max(Real(0), 1 - cosAlpha * cosAlpha));
-  const Real phi = 2 * kPi * u.y;
-  return Vec3(sinAlpha * std::cos(phi), sinAlpha * std::sin(phi), cosAlpha);
+  const SinCos<Real> phi = sinCos2Pi(u.y);
+  return Vec3(sinAlpha * phi.cos, sinAlpha * phi.sin, cosAlpha);
 }
 
 /// The pdf of samplePhongLobe at a direction whose cosine with the lobe's axis is `cosAlpha`:
