@@ -92,6 +92,26 @@ template <class T> inline T nextDown(T v)
   return std::bit_cast<T>(bits);
 }
 
+/// `v` moved one ulp in the direction of the sign of `direction`: the bits of nextUp(v) where direction > 0, of
+/// nextDown(v) where direction < 0, and of v itself where direction is ±0 or NaN, for every v. Unlike an
+/// if/else over nextUp and nextDown it has no branch on the signs of v and direction, which are random on a path
+/// tracer's rays; its one branch, taken by ±0, ±∞ and NaN (rarely if ever on a rendered ray), calls those two.
+template <class T> inline T nextAlong(T v, T direction)
+{
+  using Bits = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
+  constexpr int kSignShift = sizeof(T) * 8 - 1;
+  const Bits bits = std::bit_cast<Bits>(v);
+  // ±0, ±∞ and NaN: a magnitude of 0, or of at least ∞'s (0 − 1 wraps around to the largest Bits).
+  const Bits magnitude = bits & ~(Bits(1) << kSignShift);
+  if (magnitude - 1 >= std::bit_cast<Bits>(std::numeric_limits<T>::infinity()) - 1) [[unlikely]]
+    return direction > 0 ? nextUp(v) : direction < 0 ? nextDown(v) : v;
+  // Finite and non-zero, v's bits below the sign count its magnitude: one step is +1 where direction has v's sign
+  // (|v| grows) and −1 where it has the other; none where direction is ±0 or NaN.
+  const Bits moves = std::fabs(direction) > 0;
+  const Bits against = ((bits ^ std::bit_cast<Bits>(direction)) >> kSignShift) & moves;
+  return std::bit_cast<T>(Bits(bits + moves - 2 * against));
+}
+
 /// The sine and cosine of one angle, returned together by sinCos2Pi.
 template <class T> struct SinCos {
   T sin; ///< sin of the angle.

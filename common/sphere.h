@@ -130,21 +130,19 @@ SurfacePoint<T> sphereSurfacePoint(const TVec3<T>& o, const TVec3<T>& d, T t, co
 ///
 /// The offset along n is |n|·error (the error box's extent along n), then each coordinate is rounded one
 /// ulp further away. From pbrt, 3rd ed., §3.9.5. The result is to be used with tmin = 0.
+///
+/// Written without a branch on a sign, as the signs of n and w are random from one ray to the next:
+/// tests/unit/test_offset_ray_origin.cpp checks it gives the same bits as the if/else form it replaced.
 template <class T>
 TVec3<T> offsetRayOrigin(const TVec3<T>& p, const TVec3<T>& error, const TVec3<T>& n, const TVec3<T>& w)
 {
-  const T distance = glm::dot(glm::abs(n), error);
-  TVec3<T> offset = distance * n;
-  if (glm::dot(w, n) < 0)
-    offset = -offset;
-  TVec3<T> po = p + offset;
-  for (int i = 0; i < 3; ++i) {
-    if (offset[i] > 0)
-      po[i] = nextUp(po[i]);
-    else if (offset[i] < 0)
-      po[i] = nextDown(po[i]);
-  }
-  return po;
+  // |n|·error (max(n, −n) is glm::abs(n), −0 included, less its branch), negated where w leaves against n.
+  const T distance = glm::dot(glm::max(n, -n), error);
+  const T side = T(1 - 2 * int(glm::dot(w, n) < 0));
+  const TVec3<T> offset = (side * distance) * n;
+  const TVec3<T> po = p + offset;
+  // One ulp further along the offset, coordinate by coordinate: nextUp where it is > 0, nextDown where < 0.
+  return TVec3<T>(nextAlong(po.x, offset.x), nextAlong(po.y, offset.y), nextAlong(po.z, offset.z));
 }
 // [offsetRayOrigin]
 
