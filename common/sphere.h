@@ -119,7 +119,8 @@ SurfacePoint<T> sphereSurfacePoint(const TVec3<T>& o, const TVec3<T>& d, T t, co
   const TVec3<T> n = len > 0 ? local / len : TVec3<T>(0, 0, 1);
   const TVec3<T> onSphere = n * r;
   const TVec3<T> p = c + onSphere;
-  const TVec3<T> err = gamma<T>(5) * glm::abs(onSphere) + gamma<T>(2) * glm::abs(p);
+  // max(v, −v) is glm::abs(v), −0 included, without a branch on each random sign.
+  const TVec3<T> err = gamma<T>(5) * glm::max(onSphere, -onSphere) + gamma<T>(2) * glm::max(p, -p);
   return SurfacePoint<T>{p, n, err};
 }
 // [sphereSurfacePoint]

@@ -129,6 +129,27 @@ TEMPLATE_TEST_CASE("nextAlong gives the bits of nextUp, nextDown or v for every 
   CHECK(differ == 0);
 }
 
+TEMPLATE_TEST_CASE("glm::max(v, -v) is glm::abs(v) bit for bit, -0 included (offsetRayOrigin and sphereSurfacePoint "
+                   "use it for |v| without a branch on v's sign)",
+                   "[offset]", float, double)
+{
+  using T = TestType;
+  const auto absByMax = [](T v) { return glm::max(TVec3<T>(v), -TVec3<T>(v)).x; };
+  const auto absByGlm = [](T v) { return glm::abs(TVec3<T>(v)).x; };
+  int differ = 0, differFabs = 0;
+  std::vector<T> values = specialValues<T>();
+  std::mt19937_64 gen(5);
+  for (int i = 0; i < 1000000; ++i)
+    values.push_back(anyValue<T>(gen));
+  for (const T v : values) {
+    differ += !sameBits(absByMax(v), absByGlm(v));
+    differFabs += !sameBits(T(std::fabs(v)), absByGlm(v));
+  }
+  CHECK(differ == 0);
+  // The control: std::fabs, which makes −0 into +0, is told apart (so the comparison can fail).
+  CHECK(differFabs > 0);
+}
+
 TEMPLATE_TEST_CASE("offsetRayOrigin gives the same bits as its form with branches, over 4·10^6 inputs", "[offset]",
                    float, double)
 {
