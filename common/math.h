@@ -92,6 +92,12 @@ template <class T> inline T nextDown(T v)
   return std::bit_cast<T>(bits);
 }
 
+/// |v| per component, the same bits as glm::abs(v) (−0 stays −0), written as max(v, −v) so that it compiles to
+/// a max instruction rather than a branch on each sign (glm::abs does branch, and the signs of a hit's offset from
+/// the centre or of a normal are random from one ray to the next). tests/unit/test_offset_ray_origin.cpp checks
+/// the bits against glm::abs.
+template <class T> inline TVec3<T> absBranchFree(const TVec3<T>& v) { return glm::max(v, -v); }
+
 /// `v` moved one ulp in the direction of the sign of `direction`: the bits of nextUp(v) where direction > 0, of
 /// nextDown(v) where direction < 0, and of v itself where direction is ±0 or NaN, for every v. Unlike an
 /// if/else over nextUp and nextDown it has no branch on the signs of v and direction, which are random on a path

@@ -119,8 +119,7 @@ SurfacePoint<T> sphereSurfacePoint(const TVec3<T>& o, const TVec3<T>& d, T t, co
   const TVec3<T> n = len > 0 ? local / len : TVec3<T>(0, 0, 1);
   const TVec3<T> onSphere = n * r;
   const TVec3<T> p = c + onSphere;
-  // max(v, −v) is glm::abs(v), −0 included, without a branch on each random sign.
-  const TVec3<T> err = gamma<T>(5) * glm::max(onSphere, -onSphere) + gamma<T>(2) * glm::max(p, -p);
+  const TVec3<T> err = gamma<T>(5) * absBranchFree(onSphere) + gamma<T>(2) * absBranchFree(p);
   return SurfacePoint<T>{p, n, err};
 }
 // [sphereSurfacePoint]
@@ -137,8 +136,8 @@ SurfacePoint<T> sphereSurfacePoint(const TVec3<T>& o, const TVec3<T>& d, T t, co
 template <class T>
 TVec3<T> offsetRayOrigin(const TVec3<T>& p, const TVec3<T>& error, const TVec3<T>& n, const TVec3<T>& w)
 {
-  // |n|·error (max(n, −n) is glm::abs(n), −0 included, less its branch), negated where w leaves against n.
-  const T distance = glm::dot(glm::max(n, -n), error);
+  // |n|·error, negated where w leaves against n.
+  const T distance = glm::dot(absBranchFree(n), error);
   const T side = T(1 - 2 * int(glm::dot(w, n) < 0));
   const TVec3<T> offset = (side * distance) * n;
   const TVec3<T> po = p + offset;

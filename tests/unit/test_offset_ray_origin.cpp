@@ -129,12 +129,12 @@ TEMPLATE_TEST_CASE("nextAlong gives the bits of nextUp, nextDown or v for every 
   CHECK(differ == 0);
 }
 
-TEMPLATE_TEST_CASE("glm::max(v, -v) is glm::abs(v) bit for bit, -0 included (offsetRayOrigin and sphereSurfacePoint "
+TEMPLATE_TEST_CASE("absBranchFree(v) is glm::abs(v) bit for bit, -0 included (offsetRayOrigin and sphereSurfacePoint "
                    "use it for |v| without a branch on v's sign)",
                    "[offset]", float, double)
 {
   using T = TestType;
-  const auto absByMax = [](T v) { return glm::max(TVec3<T>(v), -TVec3<T>(v)).x; };
+  const auto absByMax = [](T v) { return absBranchFree(TVec3<T>(v)).x; };
   const auto absByGlm = [](T v) { return glm::abs(TVec3<T>(v)).x; };
   int differ = 0, differFabs = 0;
   std::vector<T> values = specialValues<T>();
