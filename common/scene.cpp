@@ -20,12 +20,20 @@ Hit makeHit(const std::vector<Sphere>& spheres, const Ray& ray, Real t, int inde
 
 void Scene::buildAccelerator()
 {
-  accelerator = spheres.size() > kFlatListMaxSpheres ? Bvh(spheres) : Bvh();
+  const bool tree = spheres.size() > kFlatListMaxSpheres;
+  accelerator = tree ? Bvh(spheres) : Bvh();
+  lanes = !tree && laneTestAvailable(LaneTest::FourAtOnce) ? SphereLanes(spheres, LaneTest::FourAtOnce)
+                                                             : SphereLanes();
 }
 
 bool Scene::usesAccelerator() const
 {
   return accelerator.primitiveCount() > 0 && accelerator.primitiveCount() == spheres.size();
+}
+
+bool Scene::usesLanes() const
+{
+  return !usesAccelerator() && lanes.size() > 0 && lanes.size() == spheres.size();
 }
 
 // [intersect]
@@ -36,6 +44,10 @@ bool Scene::usesAccelerator() const
   if (usesAccelerator()) { // the same answer as the loop below, found through the BVH
     const std::optional<BvhHit> h = accelerator.intersect(ray);
     return h ? std::optional<Hit>(makeHit(spheres, ray, h->t, h->primitive)) : std::nullopt;
+  }
+  if (usesLanes()) { // the same answer again, four spheres at a time
+    const std::optional<SphereHit> h = lanes.intersect(ray);
+    return h ? std::optional<Hit>(makeHit(spheres, ray, h->t, h->sphere)) : std::nullopt;
   }
   // Find the nearest sphere: each hit shrinks the interval, so later spheres must be nearer to count.
   Real tNearest = ray.tmax;
@@ -60,6 +72,8 @@ bool Scene::usesAccelerator() const
   ++tRayCount;
   if (usesAccelerator())
     return accelerator.occluded(ray);
+  if (usesLanes())
+    return lanes.occluded(ray);
   for (const Sphere& s : spheres)
     if (intersectSphere(ray.origin, ray.direction, s.center, s.radius, ray.tmin, ray.tmax))
       return true;

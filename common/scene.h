@@ -9,6 +9,7 @@
 #include "material.h"
 #include "ray.h"
 #include "sphere.h"
+#include "sphere_lanes.h"
 
 #include <cstdint>
 #include <optional>
@@ -70,12 +71,21 @@ struct Scene {
   /// (a tree over moved spheres of the same count would answer for the old ones).
   Bvh accelerator;
 
-  /// Builds `accelerator` over `spheres` when there are more than kFlatListMaxSpheres, and empties it otherwise.
+  /// The spheres four to a group, for a scene the BVH does not take, where the CPU tests four at once
+  /// (sphere_lanes.h); or an empty list. Filled by buildAccelerator() and used under the same contract as
+  /// `accelerator` (see usesLanes).
+  SphereLanes lanes;
+
+  /// Builds `accelerator` over `spheres` when there are more than kFlatListMaxSpheres, and empties it otherwise;
+  /// then `lanes` over the spheres of a scene without a tree, where the CPU tests four spheres at once.
   /// Not thread-safe: call it before rendering (no query ever builds anything, so queries are thread-safe).
   void buildAccelerator();
 
   /// True when intersect and occluded go through `accelerator`, false when they loop over the spheres.
   bool usesAccelerator() const;
+
+  /// True when intersect and occluded, without a tree, test the spheres four at a time through `lanes`.
+  bool usesLanes() const;
 
   /// The nearest hit of the ray inside [ray.tmin, ray.tmax), or nothing. Counts one ray (see rayCount()).
   std::optional<Hit> intersect(const Ray& ray) const;

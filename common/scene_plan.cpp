@@ -9,6 +9,7 @@ ScenePlan planScene(const Scene& scene, unsigned uses)
   ScenePlan plan;
   plan.spheres = scene.spheres.size();
   plan.bvh = scene.usesAccelerator();
+  plan.lanes = scene.usesLanes();
   if (uses & kUsesPointLights)
     plan.pointLights = scene.lights.size();
   for (const Sphere& s : scene.spheres) {
@@ -29,7 +30,8 @@ std::vector<std::string> describePlan(const ScenePlan& plan)
   std::vector<std::string> lines;
   lines.push_back("plan: " + count(plan.spheres, "sphere", "spheres") +
                   (plan.bvh ? " -> BVH (flat list up to " + std::to_string(kFlatListMaxSpheres) + ")"
-                            : " -> flat list (BVH from " + bvhFrom + ")"));
+                            : std::string(" -> flat list") + (plan.lanes ? ", four spheres at a time" : "") +
+                                  " (BVH from " + bvhFrom + ")"));
   const std::string lights =
       count(plan.emitters, "emitter", "emitters") + ", " + count(plan.pointLights, "point light", "point lights");
   lines.push_back("plan: " + lights +

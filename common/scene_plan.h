@@ -17,6 +17,7 @@ namespace raylife {
 struct ScenePlan {
   std::size_t spheres = 0;      ///< Spheres in the scene.
   bool bvh = false;             ///< True: queries go through the BVH; false: a flat loop (≤ kFlatListMaxSpheres).
+  bool lanes = false;           ///< The flat loop tests four spheres at once (Scene::usesLanes; CPUs with AVX2).
   std::size_t pointLights = 0;  ///< Point lights in the scene (counted only if the chapter reads them).
   std::size_t emitters = 0;     ///< Spheres with an emissive material (counted only if the chapter reads emission).
   bool glass = false;           ///< Some sphere is glass and the chapter treats glass as glass.

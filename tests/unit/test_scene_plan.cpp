@@ -28,7 +28,9 @@ TEST_CASE("the plan of the Cornell box - 9 spheres in a flat list and 1 emitter 
   CHECK(plan.backgroundBlack);
   const std::vector<std::string> lines = describePlan(plan);
   REQUIRE(lines.size() == 5);
-  CHECK(lines[0] == "plan: 9 spheres -> flat list (BVH from 10)");
+  CHECK(plan.lanes == laneTestAvailable(LaneTest::FourAtOnce));
+  CHECK(lines[0] == std::string("plan: 9 spheres -> flat list") + (plan.lanes ? ", four spheres at a time" : "") +
+                        " (BVH from 10)");
   CHECK(lines[1] == "plan: 1 emitter, 0 point lights -> light sampling of 1 light");
   CHECK(lines[4] == "plan: background black -> no environment lookups");
 }

@@ -1,0 +1,236 @@
+#include "sphere_lanes.h"
+
+#include <algorithm>
+#include <cstring>
+#include <limits>
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define RAYLIFE_HAS_AVX2_LANES 1
+#include <immintrin.h> // _mm256_sqrt_pd, _mm_sqrt_ps: the one lane operation GCC's vector extensions lack
+#else
+#define RAYLIFE_HAS_AVX2_LANES 0
+#endif
+
+namespace raylife {
+
+namespace {
+
+using LaneInt = std::remove_all_extents_t<decltype(SphereGroup::index)>;
+constexpr LaneInt kNoSphere = -1;
+
+// The one-by-one test of a group: intersectSphere on each lane, in lane order. The interval shrinks to the nearest
+// hit so far, as in the scene's loop, and reaches one ulp past it so that a lane with the same t and a lower
+// index (groups need not be in index order) still wins the tie.
+void nearestOneByOne(const SphereGroup& g, const Ray& ray, SphereHit& best)
+{
+  for (int k = 0; k < SphereGroup::kWidth; ++k) {
+    if (g.index[k] == kNoSphere)
+      continue;
+    const Real tmax = best.sphere < 0 ? ray.tmax : nextUp(best.t);
+    const Vec3 center(g.centerX[k], g.centerY[k], g.centerZ[k]);
+    const std::optional<Real> t = intersectSphere(ray.origin, ray.direction, center, g.radius[k], ray.tmin, tmax);
+    if (t && (best.sphere < 0 || *t < best.t || (*t == best.t && g.index[k] < best.sphere)))
+      best = SphereHit{*t, int(g.index[k])};
+  }
+}
+
+bool anyOneByOne(const SphereGroup& g, const Ray& ray)
+{
+  for (int k = 0; k < SphereGroup::kWidth; ++k)
+    if (g.index[k] != kNoSphere && intersectSphere(ray.origin, ray.direction,
+                                                   Vec3(g.centerX[k], g.centerY[k], g.centerZ[k]), g.radius[k],
+                                                   ray.tmin, ray.tmax))
+      return true;
+  return false;
+}
+
+#if RAYLIFE_HAS_AVX2_LANES
+// ---- Four at once --------------------------------------------------------------------------------------------
+// Four Reals, and four lanes' yes (all bits set) or no: GCC's vector extensions (which clang builds too), so the
+// code below reads as the arithmetic of one sphere. Every function here is compiled for AVX2, where four doubles
+// are one register; the queries call them only when the CPU has it.
+typedef Real Real4 __attribute__((vector_size(SphereGroup::kWidth * sizeof(Real))));
+typedef LaneInt Mask4 __attribute__((vector_size(SphereGroup::kWidth * sizeof(Real))));
+
+#define RAYLIFE_AVX2 [[gnu::target("avx2")]]
+#define RAYLIFE_AVX2_INLINE [[gnu::target("avx2"), gnu::always_inline]] inline
+
+RAYLIFE_AVX2_INLINE Real4 splat(Real x) { return Real4{x, x, x, x}; }
+RAYLIFE_AVX2_INLINE Real4 load(const Real* lanes)
+{
+  Real4 v;
+  std::memcpy(&v, lanes, sizeof v);
+  return v;
+}
+RAYLIFE_AVX2_INLINE Mask4 loadIndex(const LaneInt* lanes)
+{
+  Mask4 v;
+  std::memcpy(&v, lanes, sizeof v);
+  return v;
+}
+// √v per lane, correctly rounded as std::sqrt (NaN where v < 0).
+RAYLIFE_AVX2_INLINE Real4 sqrt4(Real4 v)
+{
+#ifdef RAYLIFE_REAL_IS_FLOAT
+  return Real4(_mm_sqrt_ps(__m128(v)));
+#else
+  return Real4(_mm256_sqrt_pd(__m256d(v)));
+#endif
+}
+// std::copysign per lane: the magnitude of `magnitude`, the sign bit of `sign`.
+RAYLIFE_AVX2_INLINE Real4 copySign(Real4 magnitude, Real4 sign)
+{
+  const Mask4 signBit = Mask4{} + (LaneInt(1) << (8 * sizeof(Real) - 1));
+  return Real4((Mask4(magnitude) & ~signBit) | (Mask4(sign) & signBit));
+}
+RAYLIFE_AVX2_INLINE bool anyLane(Mask4 m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
+
+/// [fourAtOnce]
+// The first root of each lane's sphere inside [tmin, tmax), or +∞: intersectSphereRoots and intersectSphere's
+// choice of root, written for four lanes. Each lane does the same IEEE operations in the same order as the
+// scalar code (no fused multiply-add: this is compiled for AVX2 alone), so it gets the same bits.
+struct LaneRay {
+  Real4 ox, oy, oz, dx, dy, dz, tmin, tmax;
+};
+RAYLIFE_AVX2_INLINE LaneRay splatRay(const Ray& ray)
+{
+  return LaneRay{splat(ray.origin.x),    splat(ray.origin.y),    splat(ray.origin.z), splat(ray.direction.x),
+                 splat(ray.direction.y), splat(ray.direction.z), splat(ray.tmin),     splat(ray.tmax)};
+}
+RAYLIFE_AVX2_INLINE Real4 firstRoots(const SphereGroup& g, const LaneRay& r)
+{
+  const Real4 inf = splat(kInfinity);
+  // Closest approach: f = o − c, b = −f·d, l = f + b·d, and the discriminant Δ = r² − |l|².
+  const Real4 fx = r.ox - load(g.centerX), fy = r.oy - load(g.centerY), fz = r.oz - load(g.centerZ);
+  const Real4 radius = load(g.radius);
+  const Real4 rr = radius * radius;
+  const Real4 b = -((fx * r.dx + fy * r.dy) + fz * r.dz);
+  const Real4 lx = fx + b * r.dx, ly = fy + b * r.dy, lz = fz + b * r.dz;
+  const Real4 disc = rr - ((lx * lx + ly * ly) + lz * lz);
+  // Four misses cost no square root, as one miss costs none in the scalar test.
+  if (!anyLane(disc >= 0))
+    return inf;
+  // The roots q = b + sign(b)·√Δ and c/q, c = |f|² − r²; both b on a tangent through the origin (q = 0). Where
+  // Δ < 0 (a miss) √Δ is NaN, and so is every root: NaN fails each comparison below, so a miss picks no root.
+  const Real4 q = b + copySign(sqrt4(disc), b);
+  const Real4 c = ((fx * fx + fy * fy) + fz * fz) - rr;
+  const Mask4 tangent = q == 0;
+  const Real4 r0 = tangent ? b : c / q, r1 = tangent ? b : q;
+  const Mask4 swap = r0 > r1;
+  const Real4 t0 = swap ? r1 : r0, t1 = swap ? r0 : r1;
+  // The nearer root if it lies in [tmin, tmax), else the farther one if it does, else none (+∞).
+  const Mask4 in0 = (t0 >= r.tmin) & (t0 < r.tmax), in1 = (t1 >= r.tmin) & (t1 < r.tmax);
+  return in0 ? t0 : (in1 ? t1 : inf);
+}
+
+RAYLIFE_AVX2 std::optional<SphereHit> nearestFourAtOnce(std::span<const SphereGroup> groups, const Ray& ray)
+{
+  const LaneRay r = splatRay(ray);
+  // Per lane, the nearest hit over the groups (on a tie, the lower index); then the nearest over the lanes.
+  Real4 best = splat(kInfinity);
+  Mask4 bestIndex = Mask4{} + kNoSphere;
+  for (const SphereGroup& g : groups) {
+    const Real4 t = firstRoots(g, r);
+    const Mask4 index = loadIndex(g.index);
+    const Mask4 nearer = (t < best) | ((t == best) & (index < bestIndex));
+    best = nearer ? t : best;
+    bestIndex = nearer ? index : bestIndex;
+  }
+  const Real tMin = std::min(std::min(best[0], best[1]), std::min(best[2], best[3]));
+  if (!(tMin < kInfinity))
+    return std::nullopt;
+  SphereHit hit{kInfinity, std::numeric_limits<int>::max()};
+  for (int k = 0; k < SphereGroup::kWidth; ++k) {
+    const bool take = best[k] == tMin && bestIndex[k] < hit.sphere; // the lowest index at the minimum
+    hit.t = take ? best[k] : hit.t;
+    hit.sphere = take ? int(bestIndex[k]) : hit.sphere;
+  }
+  return hit;
+}
+
+RAYLIFE_AVX2 bool anyFourAtOnce(std::span<const SphereGroup> groups, const Ray& ray)
+{
+  const LaneRay r = splatRay(ray);
+  for (const SphereGroup& g : groups)
+    if (anyLane(firstRoots(g, r) < splat(kInfinity)))
+      return true;
+  return false;
+}
+/// [fourAtOnce]
+#undef RAYLIFE_AVX2
+#undef RAYLIFE_AVX2_INLINE
+#endif
+
+} // namespace
+
+bool laneTestAvailable(LaneTest test)
+{
+  if (test == LaneTest::OneByOne)
+    return true;
+#if RAYLIFE_HAS_AVX2_LANES
+  return __builtin_cpu_supports("avx2");
+#else
+  return false;
+#endif
+}
+
+LaneTest fastestLaneTest()
+{
+  return laneTestAvailable(LaneTest::FourAtOnce) ? LaneTest::FourAtOnce : LaneTest::OneByOne;
+}
+
+std::vector<SphereGroup> groupSpheres(const std::vector<Sphere>& spheres, std::span<const int> indices)
+{
+  constexpr Real kNaN = std::numeric_limits<Real>::quiet_NaN();
+  std::vector<SphereGroup> groups((indices.size() + SphereGroup::kWidth - 1) / SphereGroup::kWidth);
+  for (std::size_t i = 0; i < groups.size() * SphereGroup::kWidth; ++i) {
+    SphereGroup& g = groups[i / SphereGroup::kWidth];
+    const std::size_t k = i % SphereGroup::kWidth;
+    const bool filled = i < indices.size();
+    const Sphere s = filled ? spheres[std::size_t(indices[i])] : Sphere{Vec3(kNaN), kNaN, 0};
+    g.centerX[k] = s.center.x;
+    g.centerY[k] = s.center.y;
+    g.centerZ[k] = s.center.z;
+    g.radius[k] = s.radius;
+    g.index[k] = filled ? LaneInt(indices[i]) : kNoSphere;
+  }
+  return groups;
+}
+
+std::vector<SphereGroup> groupSpheres(const std::vector<Sphere>& spheres)
+{
+  std::vector<int> all(spheres.size());
+  for (std::size_t i = 0; i < all.size(); ++i)
+    all[i] = int(i);
+  return groupSpheres(spheres, all);
+}
+
+std::optional<SphereHit> nearestInGroups(std::span<const SphereGroup> groups, const Ray& ray, LaneTest test)
+{
+#if RAYLIFE_HAS_AVX2_LANES
+  if (test == LaneTest::FourAtOnce)
+    return nearestFourAtOnce(groups, ray);
+#endif
+  (void)test;
+  SphereHit best;
+  for (const SphereGroup& g : groups)
+    nearestOneByOne(g, ray, best);
+  return best.sphere < 0 ? std::nullopt : std::optional<SphereHit>(best);
+}
+
+SphereLanes::SphereLanes(const std::vector<Sphere>& spheres, LaneTest test)
+    : groups_(groupSpheres(spheres)), size_(spheres.size()), test_(test)
+{
+}
+
+bool anyInGroups(std::span<const SphereGroup> groups, const Ray& ray, LaneTest test)
+{
+#if RAYLIFE_HAS_AVX2_LANES
+  if (test == LaneTest::FourAtOnce)
+    return anyFourAtOnce(groups, ray);
+#endif
+  (void)test;
+  return std::any_of(groups.begin(), groups.end(), [&](const SphereGroup& g) { return anyOneByOne(g, ray); });
+}
+
+} // namespace raylife

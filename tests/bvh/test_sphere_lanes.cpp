@@ -1,0 +1,212 @@
+// The sphere lanes (common/sphere_lanes.h) against the brute-force loop: four spheres at once and one by one give
+// the same sphere and the same t, bit for bit, on every kind of ray over every kind of scene, in any lane order;
+// and the scene uses them for its flat list with hit records identical to the loop's.
+#include "random_scenes.h"
+#include "scene.h"
+#include "sphere_lanes.h"
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <cstring>
+#include <limits>
+#include <numeric>
+
+using namespace raylife;
+using namespace raylife::testing;
+
+namespace {
+
+bool sameBits(Real a, Real b) { return std::memcmp(&a, &b, sizeof(Real)) == 0; }
+
+// The tests available on this machine: one by one always, four at once where the CPU has AVX2.
+std::vector<LaneTest> laneTests()
+{
+  std::vector<LaneTest> tests{LaneTest::OneByOne};
+  if (laneTestAvailable(LaneTest::FourAtOnce))
+    tests.push_back(LaneTest::FourAtOnce);
+  else
+    WARN("this CPU has no AVX2: only the one-by-one test of the lanes is checked here");
+  return tests;
+}
+
+const char* name(LaneTest test) { return test == LaneTest::OneByOne ? "one by one" : "four at once"; }
+
+// Random rays through the lanes, in the order `indices` gives (a permutation of the spheres), against the loop.
+void checkLanes(const std::vector<Sphere>& spheres, std::vector<int> indices, std::size_t rays, std::uint64_t seed,
+                Real extent)
+{
+  const std::vector<SphereGroup> groups = groupSpheres(spheres, indices);
+  for (const LaneTest test : laneTests()) {
+    INFO("lane test: " << name(test) << ", " << spheres.size() << " spheres");
+    Random random(seed);
+    std::size_t wrong = 0, wrongAny = 0, hits = 0;
+    std::string first;
+    for (std::size_t i = 0; i < rays; ++i) {
+      const Ray ray = randomRay(random, spheres, extent);
+      const std::optional<Reference> expected = bruteForce(spheres, ray);
+      const std::optional<SphereHit> got = nearestInGroups(groups, ray, test);
+      const bool same = expected.has_value() == got.has_value() &&
+                        (!expected || (expected->sphere == got->sphere && sameBits(expected->t, got->t)));
+      if (!same && first.empty())
+        first = describe(ray) + ": loop " + (expected ? std::to_string(expected->sphere) : std::string("miss")) +
+                ", lanes " + (got ? std::to_string(got->sphere) : std::string("miss"));
+      wrong += !same;
+      wrongAny += anyInGroups(groups, ray, test) != expected.has_value();
+      hits += expected.has_value();
+    }
+    INFO("first disagreement: " << first);
+    CHECK(wrong == 0);
+    CHECK(wrongAny == 0);
+    CHECK(hits > rays / 10); // the rays do meet the spheres
+    CHECK(hits < rays);      // and some miss
+  }
+}
+
+std::vector<int> inOrder(std::size_t n)
+{
+  std::vector<int> indices(n);
+  std::iota(indices.begin(), indices.end(), 0);
+  return indices;
+}
+
+std::vector<int> shuffled(std::size_t n, Random& random)
+{
+  std::vector<int> indices = inOrder(n);
+  for (std::size_t i = n; i > 1; --i)
+    std::swap(indices[i - 1], indices[random.index(i)]);
+  return indices;
+}
+
+// The Cornell box as scenes/cornell.json builds it: a ray inside six huge wall spheres.
+std::vector<Sphere> cornellBox()
+{
+  return {Sphere{Vec3(100001, 40.8, 81.6), 100000, 0}, Sphere{Vec3(-99901, 40.8, 81.6), 100000, 0},
+          Sphere{Vec3(50, 40.8, 100000), 100000, 0},   Sphere{Vec3(50, 40.8, -99830), 100000, 0},
+          Sphere{Vec3(50, 100000, 81.6), 100000, 0},   Sphere{Vec3(50, -99918.4, 81.6), 100000, 0},
+          Sphere{Vec3(27, 16.5, 47), 16.5, 0},         Sphere{Vec3(73, 16.5, 78), 16.5, 0},
+          Sphere{Vec3(50, 66, 81.6), 10, 0}};
+}
+
+} // namespace
+
+TEST_CASE("the lanes find exactly the brute-force hit - four at once and one by one")
+{
+  Random random(77);
+  SECTION("the Cornell box, from inside")
+  {
+    // Rays from inside the room, which is inside all six walls (spheres of radius 1e5).
+    const std::vector<Sphere> box = cornellBox();
+    const std::vector<Sphere> small(box.begin() + 6, box.end());
+    const std::vector<SphereGroup> groups = groupSpheres(box);
+    std::size_t wrong = 0, unbounded = 0, unboundedHits = 0;
+    for (const LaneTest test : laneTests()) {
+      Random rays(5);
+      for (int i = 0; i < 200000; ++i) {
+        Ray ray = randomRay(rays, small, 40); // about the balls and the lamp: inside them, grazing them, ...
+        const bool inRoom = glm::all(glm::greaterThan(ray.origin, Vec3(1.5, 0.5, 0.5))) &&
+                            glm::all(glm::lessThan(ray.origin, Vec3(98.5, 81, 169)));
+        if (!inRoom) // ... or from anywhere in the room
+          ray.origin = Vec3(rays.uniform(Real(1.5), Real(98.5)), rays.uniform(Real(0.5), 81),
+                            rays.uniform(Real(0.5), 169));
+        const std::optional<Reference> expected = bruteForce(box, ray);
+        const std::optional<SphereHit> got = nearestInGroups(groups, ray, test);
+        wrong += expected.has_value() != got.has_value() ||
+                 (expected && (expected->sphere != got->sphere || !sameBits(expected->t, got->t)));
+        unbounded += ray.tmax == kInfinity;
+        unboundedHits += ray.tmax == kInfinity && got.has_value();
+      }
+    }
+    CHECK(wrong == 0);
+    CHECK(unboundedHits == unbounded); // an unbounded ray inside the box always hits a wall
+  }
+  SECTION("uniform spheres") { checkLanes(uniformScene(random, 9), inOrder(9), 200000, 1, 12); }
+  SECTION("clusters of spheres of very different sizes")
+  {
+    checkLanes(clusteredScene(random, 40), inOrder(40), 100000, 2, 55);
+  }
+  SECTION("a huge ground sphere under small ones") { checkLanes(groundScene(random, 9), inOrder(9), 200000, 5, 12); }
+  SECTION("a lattice of touching spheres") { checkLanes(latticeScene(2), inOrder(8), 100000, 4, 3); }
+  SECTION("every count from 1 to 13: full and part-filled groups")
+  {
+    for (std::size_t n = 1; n <= 13; ++n)
+      checkLanes(uniformScene(random, int(n)), inOrder(n), 20000, 10 + n, 12);
+  }
+  SECTION("duplicate and concentric spheres in shuffled lanes: ties go to the lowest index")
+  {
+    // Equal t in different lanes and groups, in an order that is not the index order (as in a BVH leaf).
+    const std::vector<Sphere> spheres = duplicateScene(random, 16);
+    for (std::uint64_t seed = 0; seed < 4; ++seed)
+      checkLanes(spheres, shuffled(spheres.size(), random), 50000, 20 + seed, 12);
+  }
+}
+
+TEST_CASE("lanes: NaN and infinite rays - empty lanes - empty lists - miss as the loop does")
+{
+  Random random(3);
+  const std::vector<Sphere> spheres = uniformScene(random, 5); // two groups, the second with three empty lanes
+  const std::vector<SphereGroup> groups = groupSpheres(spheres);
+  REQUIRE(groups.size() == 2);
+  CHECK(groups[1].index[1] == -1);
+  CHECK(std::isnan(groups[1].radius[3]));
+  for (const LaneTest test : laneTests()) {
+    INFO("lane test: " << name(test));
+    for (const Ray& ray : nonFiniteRays(random, 12)) {
+      const std::optional<Reference> expected = bruteForce(spheres, ray);
+      const std::optional<SphereHit> got = nearestInGroups(groups, ray, test);
+      REQUIRE(got.has_value() == expected.has_value());
+      CHECK(anyInGroups(groups, ray, test) == expected.has_value());
+    }
+    // From (0, 0, 40) straight at each sphere's centre: always a hit (that sphere or one in front of it), and
+    // never on an empty lane.
+    for (const Sphere& s : spheres) {
+      const Ray ray{Vec3(0, 0, 40), glm::normalize(s.center - Vec3(0, 0, 40))};
+      const std::optional<SphereHit> got = nearestInGroups(groups, ray, test);
+      REQUIRE(got);
+      CHECK(got->sphere >= 0);
+      CHECK(got->sphere < int(spheres.size()));
+    }
+    CHECK_FALSE(nearestInGroups({}, Ray{}, test));
+    CHECK_FALSE(anyInGroups({}, Ray{}, test));
+  }
+}
+
+TEST_CASE("the scene's flat list goes through the lanes where the CPU tests four at once - with identical hits")
+{
+  Random random(8);
+  Scene lanes;
+  lanes.materials.push_back(Material{});
+  lanes.spheres = groundScene(random, int(kFlatListMaxSpheres));
+  Scene loop = lanes;
+  lanes.buildAccelerator();
+  REQUIRE_FALSE(lanes.usesAccelerator());
+  CHECK(lanes.usesLanes() == laneTestAvailable(LaneTest::FourAtOnce));
+  CHECK_FALSE(loop.usesLanes()); // never built: the one-by-one loop
+  for (int i = 0; i < 50000; ++i) {
+    const Ray ray = randomRay(random, lanes.spheres, 12);
+    const std::optional<Hit> a = loop.intersect(ray), b = lanes.intersect(ray);
+    REQUIRE(a.has_value() == b.has_value());
+    if (a) {
+      REQUIRE(sameBits(a->t, b->t));
+      REQUIRE(a->sphere == b->sphere);
+      REQUIRE(a->point == b->point);
+      REQUIRE(a->normal == b->normal);
+      REQUIRE(a->pointError == b->pointError);
+    }
+    REQUIRE(loop.occluded(ray) == lanes.occluded(ray));
+  }
+  // Stale: a sphere added after the build is seen (through the loop), as with the BVH.
+  lanes.spheres.push_back(Sphere{Vec3(0, 50, 0), 1, 0});
+  CHECK_FALSE(lanes.usesLanes());
+  const std::optional<Hit> hit = lanes.intersect(Ray{Vec3(0, 60, 0), Vec3(0, -1, 0)});
+  REQUIRE(hit);
+  CHECK(hit->sphere == int(lanes.spheres.size()) - 1);
+  // A scene the BVH takes keeps no lanes.
+  Scene big;
+  big.materials.push_back(Material{});
+  big.spheres = groundScene(random, int(kFlatListMaxSpheres) + 1);
+  big.buildAccelerator();
+  CHECK(big.usesAccelerator());
+  CHECK_FALSE(big.usesLanes());
+  CHECK(big.lanes.size() == 0);
+}
