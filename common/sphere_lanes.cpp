@@ -1,8 +1,11 @@
 #include "sphere_lanes.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #define RAYLIFE_HAS_AVX2_LANES 1
@@ -15,31 +18,26 @@ namespace raylife {
 
 namespace {
 
-using LaneInt = std::remove_all_extents_t<decltype(SphereGroup::index)>;
-constexpr LaneInt kNoSphere = -1;
-
-// The one-by-one test of a group: intersectSphere on each lane, in lane order. The interval shrinks to the nearest
-// hit so far, as in the scene's loop, and reaches one ulp past it so that a lane with the same t and a lower
-// index (groups need not be in index order) still wins the tie.
-void nearestOneByOne(const SphereGroup& g, const Ray& ray, SphereHit& best)
+// The one-by-one test: the scene's loop over the spheres, lane after lane (skipping empty lanes), each hit
+// shrinking the interval so that a later sphere must be strictly nearer.
+void nearestOneByOne(const SphereGroup& g, int first, const Ray& ray, SphereHit& best)
 {
   for (int k = 0; k < SphereGroup::kWidth; ++k) {
-    if (g.index[k] == kNoSphere)
-      continue;
-    const Real tmax = best.sphere < 0 ? ray.tmax : nextUp(best.t);
+    if (std::isnan(g.radius[k]))
+      continue; // an empty lane
     const Vec3 center(g.centerX[k], g.centerY[k], g.centerZ[k]);
-    const std::optional<Real> t = intersectSphere(ray.origin, ray.direction, center, g.radius[k], ray.tmin, tmax);
-    if (t && (best.sphere < 0 || *t < best.t || (*t == best.t && g.index[k] < best.sphere)))
-      best = SphereHit{*t, int(g.index[k])};
+    const Real tmax = best.sphere < 0 ? ray.tmax : best.t;
+    if (const std::optional<Real> t = intersectSphere(ray.origin, ray.direction, center, g.radius[k], ray.tmin, tmax))
+      best = SphereHit{*t, first + k};
   }
 }
 
 bool anyOneByOne(const SphereGroup& g, const Ray& ray)
 {
   for (int k = 0; k < SphereGroup::kWidth; ++k)
-    if (g.index[k] != kNoSphere && intersectSphere(ray.origin, ray.direction,
-                                                   Vec3(g.centerX[k], g.centerY[k], g.centerZ[k]), g.radius[k],
-                                                   ray.tmin, ray.tmax))
+    if (!std::isnan(g.radius[k]) && intersectSphere(ray.origin, ray.direction,
+                                                    Vec3(g.centerX[k], g.centerY[k], g.centerZ[k]), g.radius[k],
+                                                    ray.tmin, ray.tmax))
       return true;
   return false;
 }
@@ -50,6 +48,7 @@ bool anyOneByOne(const SphereGroup& g, const Ray& ray)
 // code below reads as the arithmetic of one sphere. Every function here is compiled for AVX2, where four doubles
 // are one register; the queries call them only when the CPU has it.
 typedef Real Real4 __attribute__((vector_size(SphereGroup::kWidth * sizeof(Real))));
+using LaneInt = std::conditional_t<sizeof(Real) == 8, std::int64_t, std::int32_t>;
 typedef LaneInt Mask4 __attribute__((vector_size(SphereGroup::kWidth * sizeof(Real))));
 
 #define RAYLIFE_AVX2 [[gnu::target("avx2")]]
@@ -59,12 +58,6 @@ RAYLIFE_AVX2_INLINE Real4 splat(Real x) { return Real4{x, x, x, x}; }
 RAYLIFE_AVX2_INLINE Real4 load(const Real* lanes)
 {
   Real4 v;
-  std::memcpy(&v, lanes, sizeof v);
-  return v;
-}
-RAYLIFE_AVX2_INLINE Mask4 loadIndex(const LaneInt* lanes)
-{
-  Mask4 v;
   std::memcpy(&v, lanes, sizeof v);
   return v;
 }
@@ -104,16 +97,18 @@ RAYLIFE_AVX2_INLINE Real4 firstRoots(const SphereGroup& g, const LaneRay& r)
   const Real4 fx = r.ox - load(g.centerX), fy = r.oy - load(g.centerY), fz = r.oz - load(g.centerZ);
   const Real4 radius = load(g.radius);
   const Real4 rr = radius * radius;
+  const Real4 ff = (fx * fx + fy * fy) + fz * fz;
   const Real4 b = -((fx * r.dx + fy * r.dy) + fz * r.dz);
   const Real4 lx = fx + b * r.dx, ly = fy + b * r.dy, lz = fz + b * r.dz;
   const Real4 disc = rr - ((lx * lx + ly * ly) + lz * lz);
-  // Four misses cost no square root, as one miss costs none in the scalar test.
-  if (!anyLane(disc >= 0))
+  // Four misses cost no square root, as one costs none in intersectSphere: a lane misses where Δ < 0, or where
+  // the ray starts outside its sphere heading away from the centre (intersectSphere's first exit).
+  if (!anyLane((disc >= 0) & ~((ff > rr) & (b <= 0))))
     return inf;
   // The roots q = b + sign(b)·√Δ and c/q, c = |f|² − r²; both b on a tangent through the origin (q = 0). Where
   // Δ < 0 (a miss) √Δ is NaN, and so is every root: NaN fails each comparison below, so a miss picks no root.
   const Real4 q = b + copySign(sqrt4(disc), b);
-  const Real4 c = ((fx * fx + fy * fy) + fz * fz) - rr;
+  const Real4 c = ff - rr;
   const Mask4 tangent = q == 0;
   const Real4 r0 = tangent ? b : c / q, r1 = tangent ? b : q;
   const Mask4 swap = r0 > r1;
@@ -126,24 +121,25 @@ RAYLIFE_AVX2_INLINE Real4 firstRoots(const SphereGroup& g, const LaneRay& r)
 RAYLIFE_AVX2 std::optional<SphereHit> nearestFourAtOnce(std::span<const SphereGroup> groups, const Ray& ray)
 {
   const LaneRay r = splatRay(ray);
-  // Per lane, the nearest hit over the groups (on a tie, the lower index); then the nearest over the lanes.
+  // Per lane, the nearest hit over the groups and the group it is in (a later group, holding higher indices, must
+  // be strictly nearer); then the nearest over the lanes, the lowest index on a tie.
   Real4 best = splat(kInfinity);
-  Mask4 bestIndex = Mask4{} + kNoSphere;
-  for (const SphereGroup& g : groups) {
-    const Real4 t = firstRoots(g, r);
-    const Mask4 index = loadIndex(g.index);
-    const Mask4 nearer = (t < best) | ((t == best) & (index < bestIndex));
+  Mask4 bestGroup = Mask4{} - 1;
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    const Real4 t = firstRoots(groups[g], r);
+    const Mask4 nearer = t < best;
     best = nearer ? t : best;
-    bestIndex = nearer ? index : bestIndex;
+    bestGroup = nearer ? Mask4{} + LaneInt(g) : bestGroup;
   }
   const Real tMin = std::min(std::min(best[0], best[1]), std::min(best[2], best[3]));
   if (!(tMin < kInfinity))
     return std::nullopt;
   SphereHit hit{kInfinity, std::numeric_limits<int>::max()};
   for (int k = 0; k < SphereGroup::kWidth; ++k) {
-    const bool take = best[k] == tMin && bestIndex[k] < hit.sphere; // the lowest index at the minimum
+    const int index = int(bestGroup[k]) * SphereGroup::kWidth + k;
+    const bool take = best[k] == tMin && index < hit.sphere; // the lowest index at the minimum
     hit.t = take ? best[k] : hit.t;
-    hit.sphere = take ? int(bestIndex[k]) : hit.sphere;
+    hit.sphere = take ? index : hit.sphere;
   }
   return hit;
 }
@@ -179,30 +175,20 @@ LaneTest fastestLaneTest()
   return laneTestAvailable(LaneTest::FourAtOnce) ? LaneTest::FourAtOnce : LaneTest::OneByOne;
 }
 
-std::vector<SphereGroup> groupSpheres(const std::vector<Sphere>& spheres, std::span<const int> indices)
+std::vector<SphereGroup> groupSpheres(const std::vector<Sphere>& spheres)
 {
   constexpr Real kNaN = std::numeric_limits<Real>::quiet_NaN();
-  std::vector<SphereGroup> groups((indices.size() + SphereGroup::kWidth - 1) / SphereGroup::kWidth);
+  std::vector<SphereGroup> groups((spheres.size() + SphereGroup::kWidth - 1) / SphereGroup::kWidth);
   for (std::size_t i = 0; i < groups.size() * SphereGroup::kWidth; ++i) {
+    const Sphere s = i < spheres.size() ? spheres[i] : Sphere{Vec3(kNaN), kNaN, 0}; // an empty lane: NaN
     SphereGroup& g = groups[i / SphereGroup::kWidth];
     const std::size_t k = i % SphereGroup::kWidth;
-    const bool filled = i < indices.size();
-    const Sphere s = filled ? spheres[std::size_t(indices[i])] : Sphere{Vec3(kNaN), kNaN, 0};
     g.centerX[k] = s.center.x;
     g.centerY[k] = s.center.y;
     g.centerZ[k] = s.center.z;
     g.radius[k] = s.radius;
-    g.index[k] = filled ? LaneInt(indices[i]) : kNoSphere;
   }
   return groups;
-}
-
-std::vector<SphereGroup> groupSpheres(const std::vector<Sphere>& spheres)
-{
-  std::vector<int> all(spheres.size());
-  for (std::size_t i = 0; i < all.size(); ++i)
-    all[i] = int(i);
-  return groupSpheres(spheres, all);
 }
 
 std::optional<SphereHit> nearestInGroups(std::span<const SphereGroup> groups, const Ray& ray, LaneTest test)
@@ -213,8 +199,8 @@ std::optional<SphereHit> nearestInGroups(std::span<const SphereGroup> groups, co
 #endif
   (void)test;
   SphereHit best;
-  for (const SphereGroup& g : groups)
-    nearestOneByOne(g, ray, best);
+  for (std::size_t g = 0; g < groups.size(); ++g)
+    nearestOneByOne(groups[g], int(g) * SphereGroup::kWidth, ray, best);
   return best.sphere < 0 ? std::nullopt : std::optional<SphereHit>(best);
 }
 

@@ -18,24 +18,21 @@
 #include "ray.h"
 #include "sphere.h"
 
-#include <cstdint>
 #include <optional>
 #include <span>
 #include <vector>
 
 namespace raylife {
 
-/// Four spheres side by side: lane k of each array is sphere k of the group. A lane without a sphere holds NaN,
-/// which no ray hits (NaN fails every comparison), and index −1.
-struct alignas(64) SphereGroup {
+/// Four spheres side by side, stored by coordinate: lane k of group g is sphere 4g + k of the list. A lane without
+/// a sphere (at the end of the last group) holds NaN, which no ray hits: NaN fails every comparison.
+struct alignas(32) SphereGroup {
   /// Spheres in a group: four doubles fill one AVX2 register.
   static constexpr int kWidth = 4;
   Real centerX[kWidth]; ///< Centres' x, world space.
   Real centerY[kWidth]; ///< Centres' y.
   Real centerZ[kWidth]; ///< Centres' z.
   Real radius[kWidth];  ///< Radii, > 0 (NaN in an empty lane).
-  /// The sphere's index in the caller's vector, as a lane-wide integer (the width of Real), or −1 (empty lane).
-  std::conditional_t<sizeof(Real) == 8, std::int64_t, std::int32_t> index[kWidth];
 };
 
 /// How a query tests a group.
@@ -50,22 +47,19 @@ bool laneTestAvailable(LaneTest test);
 /// The fastest test this CPU runs: FourAtOnce where available, else OneByOne. Both give the same answers.
 LaneTest fastestLaneTest();
 
-/// The spheres `spheres[indices[i]]` in groups of four, in that order (the last group padded with empty lanes).
-/// Each lane keeps its sphere's index in `spheres`.
-std::vector<SphereGroup> groupSpheres(const std::vector<Sphere>& spheres, std::span<const int> indices);
-
-/// All of `spheres`, in order, in groups of four (lane k of group g is sphere 4g + k).
+/// `spheres`, in order, in groups of four (the last group padded with empty lanes).
 std::vector<SphereGroup> groupSpheres(const std::vector<Sphere>& spheres);
 
 /// The nearest sphere a ray hits: its index (as stored in its lane) and the distance.
 struct SphereHit {
   Real t = 0;      ///< Ray parameter of the hit, in [ray.tmin, ray.tmax).
-  int sphere = -1; ///< The lane's index (SphereGroup::index).
+  int sphere = -1; ///< The sphere's index in the list: 4g + k for lane k of group g.
 };
 
 /// The nearest hit among the groups' spheres inside [ray.tmin, ray.tmax), exactly as the loop
-/// `for each sphere: t = intersectSphere(..., ray.tmin, tNearest)` finds it: the smallest t, and on a tie the
-/// lowest index. Nothing when no sphere is hit. Contract as intersectSphere's: unit direction, ray.tmin ≥ 0.
+/// `for each sphere, in order: t = intersectSphere(..., ray.tmin, tNearest)` finds it: the smallest t, and on a
+/// tie the lowest index. Nothing when no sphere is hit. Contract as intersectSphere's: unit direction, tmin ≥ 0;
+/// `test` must be available (laneTestAvailable).
 std::optional<SphereHit> nearestInGroups(std::span<const SphereGroup> groups, const Ray& ray, LaneTest test);
 
 /// True when any of the groups' spheres is hit inside [ray.tmin, ray.tmax) (the shadow-ray query): exactly when
