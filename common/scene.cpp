@@ -22,8 +22,8 @@ void Scene::buildAccelerator()
 {
   const bool tree = spheres.size() > kFlatListMaxSpheres;
   accelerator = tree ? Bvh(spheres) : Bvh();
-  lanes = !tree && laneTestAvailable(LaneTest::FourAtOnce) ? SphereLanes(spheres, LaneTest::FourAtOnce)
-                                                             : SphereLanes();
+  const bool fourAtOnce = !tree && spheres.size() >= kLanesMinSpheres && laneTestAvailable(LaneTest::FourAtOnce);
+  lanes = fourAtOnce ? SphereLanes(spheres, LaneTest::FourAtOnce) : SphereLanes();
 }
 
 bool Scene::usesAccelerator() const

@@ -35,11 +35,21 @@ struct CameraSpec {
 /// The film keeps about 56 bytes a pixel, so this bounds its memory at about 3.5 GiB.
 inline constexpr std::int64_t kMaxPixels = std::int64_t(1) << 26;
 
-/// Scenes with at most this many spheres are searched one by one; larger ones through a BVH. Below the crossover
-/// a flat loop beats a tree (no boxes to test, no stack). Measured with `tools/bvh_bench crossover` on the
-/// random-spheres scene, one thread: the tree overtakes the loop at about 15 spheres for camera rays and 8 for
-/// shadow rays; for chapter 4's mix (1.3 shadow rays per camera ray) at 10. So the Cornell box (9) stays a loop.
+/// Scenes with at most this many spheres are searched as a flat list; larger ones through a BVH. Below the
+/// crossover a flat loop beats a tree (no boxes to test, no stack). Measured with `tools/bvh_bench crossover` on the
+/// random-spheres scene, one thread: the tree overtakes the one-by-one loop at about 15 spheres for camera rays and
+/// 8 for shadow rays; for chapter 4's mix (1.3 shadow rays per camera ray) at 10. So the Cornell box (9) stays a
+/// flat list. (Four at a time, the list would hold its own against the tree up to about 20 spheres, but the
+/// threshold is the one-by-one loop's, which every CPU runs.)
 inline constexpr std::size_t kFlatListMaxSpheres = 9;
+
+/// A flat list of at least this many spheres tests them four at a time (sphere_lanes.h) where the CPU has AVX2;
+/// a shorter one one by one, whose early exits (a sphere behind the ray, a miss without a square root) are then
+/// cheaper than four lanes' full test and their reduction. Measured with `tools/bvh_bench crossover`, one thread:
+/// for chapter 4's mix the two are even at 6 spheres and four at a time wins from 7; chapter 4 on
+/// scenes/spheres.json (5 spheres) ran 5% slower four at a time. Rays inside large spheres favour the lanes more:
+/// chapter 6 in the Cornell box (9) runs 1.13 to 1.25 times as fast.
+inline constexpr std::size_t kLanesMinSpheres = 7;
 
 /// Scene::intersectWithWork's answer: the hit, and the work the query did.
 struct TracedHit {
@@ -71,13 +81,14 @@ struct Scene {
   /// (a tree over moved spheres of the same count would answer for the old ones).
   Bvh accelerator;
 
-  /// The spheres four to a group, for a scene the BVH does not take, where the CPU tests four at once
-  /// (sphere_lanes.h); or an empty list. Filled by buildAccelerator() and used under the same contract as
+  /// The spheres four to a group, for a scene the BVH does not take (of kLanesMinSpheres or more), where the CPU
+  /// tests four at once (sphere_lanes.h); or an empty list. Filled by buildAccelerator() and used under the same contract as
   /// `accelerator` (see usesLanes).
   SphereLanes lanes;
 
   /// Builds `accelerator` over `spheres` when there are more than kFlatListMaxSpheres, and empties it otherwise;
-  /// then `lanes` over the spheres of a scene without a tree, where the CPU tests four spheres at once.
+  /// then `lanes` over the spheres of a scene without a tree of at least kLanesMinSpheres, where the CPU tests four
+  /// spheres at once, and empties it otherwise.
   /// Not thread-safe: call it before rendering (no query ever builds anything, so queries are thread-safe).
   void buildAccelerator();
 

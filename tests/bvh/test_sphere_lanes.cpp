@@ -180,7 +180,13 @@ TEST_CASE("the scene's flat list goes through the lanes where the CPU tests four
   const std::optional<Hit> hit = lanes.intersect(Ray{Vec3(0, 60, 0), Vec3(0, -1, 0)});
   REQUIRE(hit);
   CHECK(hit->sphere == int(lanes.spheres.size()) - 1);
-  // A scene the BVH takes keeps no lanes.
+  // A scene below kLanesMinSpheres keeps no lanes, nor does one the BVH takes.
+  Scene few;
+  few.materials.push_back(Material{});
+  few.spheres = groundScene(random, int(kLanesMinSpheres) - 1);
+  few.buildAccelerator();
+  CHECK_FALSE(few.usesLanes());
+  CHECK_FALSE(few.usesAccelerator());
   Scene big;
   big.materials.push_back(Material{});
   big.spheres = groundScene(random, int(kFlatListMaxSpheres) + 1);

@@ -2,7 +2,9 @@
 //
 //   bvh_bench speed [SCENE.json] [--repeat R]
 //       Mrays/s of the closest-hit query (camera rays) and of the any-hit query (shadow rays towards the point
-//       lights), through the flat loop and through the BVH, side by side, best of R interleaved runs.
+//       lights), through the flat loop (one sphere at a time, as chapter 2 writes it), through the flat list four
+//       spheres at a time (sphere_lanes.h, where the CPU has AVX2) and through the BVH, side by side, best of R
+//       interleaved runs.
 //   bvh_bench crossover [SCENE.json] [--repeat R]
 //       The same for the N spheres nearest the focal point (the ground sphere always among them), N = 1 … 64:
 //       where the tree starts to pay (Scene's kFlatListMaxSpheres).
@@ -81,38 +83,51 @@ std::pair<double, std::size_t> timeAny(const Scene& scene, const std::vector<Ray
   return {threadSeconds() - start, blocked};
 }
 
+// Mrays/s of the three ways to search the spheres: the loop one by one, the flat list four at a time, the tree.
 struct Speeds {
-  double flatClosest, bvhClosest, flatAny, bvhAny; // Mrays/s
+  double flatClosest, lanesClosest, bvhClosest, flatAny, lanesAny, bvhAny;
 };
 
-// Best of `repeat` interleaved runs of each query through each structure (the best run is the least disturbed).
-Speeds measure(const Scene& flat, const Scene& tree, const Rays& rays, int repeat)
+// The same scene three times: searched by the one-by-one loop, by the flat list four at a time (or, without AVX2,
+// one by one again), and through a BVH (built whatever the sphere count).
+struct Searches {
+  Scene flat, lanes, tree;
+};
+Searches searches(const Scene& scene, BvhSplit split = BvhSplit::Sah)
 {
-  double best[4] = {1e30, 1e30, 1e30, 1e30};
-  for (int r = 0; r < repeat; ++r) {
-    const auto a = timeClosest(flat, rays.camera), b = timeClosest(tree, rays.camera);
-    const auto c = timeAny(flat, rays.shadow), d = timeAny(tree, rays.shadow);
-    if (a.second != b.second || c.second != d.second) {
-      std::fprintf(stderr, "bvh_bench: the flat list and the BVH disagree (%zu/%zu hits, %zu/%zu blocked)\n",
-                   a.second, b.second, c.second, d.second);
-      std::exit(1);
-    }
-    best[0] = std::min(best[0], a.first);
-    best[1] = std::min(best[1], b.first);
-    best[2] = std::min(best[2], c.first);
-    best[3] = std::min(best[3], d.first);
-  }
-  const double nc = double(rays.camera.size()) / 1e6, ns = double(rays.shadow.size()) / 1e6;
-  return Speeds{nc / best[0], nc / best[1], ns / std::max(best[2], 1e-12), ns / std::max(best[3], 1e-12)};
+  Searches s{scene, scene, scene};
+  s.flat.accelerator = Bvh();
+  s.flat.lanes = SphereLanes();
+  s.lanes.accelerator = Bvh();
+  s.lanes.lanes = SphereLanes(scene.spheres, fastestLaneTest());
+  s.tree.accelerator = Bvh(s.tree.spheres, BvhBuildOptions{split});
+  return s;
 }
 
-// The same scene twice: one searched by the flat loop, one through a BVH (built whatever the sphere count).
-std::pair<Scene, Scene> flatAndTree(const Scene& scene, BvhSplit split = BvhSplit::Sah)
+// Best of `repeat` interleaved runs of each query through each search (the best run is the least disturbed).
+Speeds measure(const Searches& s, const Rays& rays, int repeat)
 {
-  Scene flat = scene, tree = scene;
-  flat.accelerator = Bvh();
-  tree.accelerator = Bvh(tree.spheres, BvhBuildOptions{split});
-  return {flat, tree};
+  double best[6] = {1e30, 1e30, 1e30, 1e30, 1e30, 1e30};
+  const Scene* scenes[3] = {&s.flat, &s.lanes, &s.tree};
+  std::size_t hits[2] = {0, 0}; // the loop's hits and blocked rays, which the others must match
+  for (int r = 0; r < repeat; ++r)
+    for (int k = 0; k < 3; ++k) {
+      const auto closest = timeClosest(*scenes[k], rays.camera), any = timeAny(*scenes[k], rays.shadow);
+      if (k == 0) {
+        hits[0] = closest.second;
+        hits[1] = any.second;
+      } else if (closest.second != hits[0] || any.second != hits[1]) {
+        std::fprintf(stderr, "bvh_bench: the searches disagree (%zu/%zu hits, %zu/%zu blocked)\n", hits[0],
+                     closest.second, hits[1], any.second);
+        std::exit(1);
+      }
+      best[k] = std::min(best[k], closest.first);
+      best[3 + k] = std::min(best[3 + k], any.first);
+    }
+  const double nc = double(rays.camera.size()) / 1e6, ns = double(rays.shadow.size()) / 1e6;
+  auto rate = [](double n, double seconds) { return n / std::max(seconds, 1e-12); };
+  return Speeds{rate(nc, best[0]), rate(nc, best[1]), rate(nc, best[2]),
+                rate(ns, best[3]), rate(ns, best[4]), rate(ns, best[5])};
 }
 
 int usage()
@@ -152,15 +167,21 @@ int main(int argc, char** argv)
   try {
     const Scene scene = loadScene(scenePath);
     if (mode == "speed") {
-      const auto [flat, tree] = flatAndTree(scene);
-      const Rays rays = makeRays(flat, width, height);
-      const Speeds s = measure(flat, tree, rays, repeat);
+      const Searches search = searches(scene);
+      const Scene& tree = search.tree;
+      const Rays rays = makeRays(search.flat, width, height);
+      const Speeds s = measure(search, rays, repeat);
       std::printf("%s: %zu spheres, %zu camera rays, %zu shadow rays, one thread, best of %d\n", scenePath.c_str(),
                   scene.spheres.size(), rays.camera.size(), rays.shadow.size(), repeat);
-      std::printf("closest hit: flat %.3f Mrays/s, BVH %.3f Mrays/s, BVH/flat %.1f\n", s.flatClosest, s.bvhClosest,
-                  s.bvhClosest / s.flatClosest);
-      std::printf("any hit:     flat %.3f Mrays/s, BVH %.3f Mrays/s, BVH/flat %.1f\n", s.flatAny, s.bvhAny,
-                  s.bvhAny / s.flatAny);
+      std::printf("closest hit: flat %.3f Mrays/s, BVH %.3f Mrays/s, BVH/flat %.1f; flat four at a time %.3f, "
+                  "BVH/that %.1f\n",
+                  s.flatClosest, s.bvhClosest, s.bvhClosest / s.flatClosest, s.lanesClosest,
+                  s.bvhClosest / s.lanesClosest);
+      std::printf("any hit:     flat %.3f Mrays/s, BVH %.3f Mrays/s, BVH/flat %.1f; flat four at a time %.3f, "
+                  "BVH/that %.1f\n",
+                  s.flatAny, s.bvhAny, s.bvhAny / s.flatAny, s.lanesAny, s.bvhAny / s.lanesAny);
+      if (search.lanes.lanes.test() != LaneTest::FourAtOnce)
+        std::printf("(this CPU has no AVX2: \"four at a time\" tested them one by one)\n");
       // The work behind those figures: boxes (a node's eight count as eight) and spheres tested per ray.
       BvhWork camera, shadow;
       for (const Ray& ray : rays.camera)
@@ -185,22 +206,24 @@ int main(int argc, char** argv)
           return a.radius > b.radius;
         return glm::length(a.center - scene.camera.focal) < glm::length(b.center - scene.camera.focal);
       });
-      std::printf("N spheres | closest hit Mrays/s: flat  BVH  BVH/flat | any hit Mrays/s: flat  BVH  BVH/flat\n");
+      std::printf("N spheres | closest hit Mrays/s: flat  four   BVH  BVH/four | any hit Mrays/s: flat  four   BVH  "
+                  "BVH/four\n");
       for (std::size_t n : {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 12, 14, 16, 20, 24, 32, 48, 64}) {
         if (n > ordered.size())
           break;
         Scene part = scene;
         part.spheres.assign(ordered.begin(), ordered.begin() + std::ptrdiff_t(n));
-        const auto [flat, tree] = flatAndTree(part);
-        const Rays rays = makeRays(flat, width, height);
-        const Speeds s = measure(flat, tree, rays, repeat);
-        std::printf("%9zu | %8.2f %6.2f %6.2f | %8.2f %6.2f %6.2f\n", n, s.flatClosest, s.bvhClosest,
-                    s.bvhClosest / s.flatClosest, s.flatAny, s.bvhAny, s.bvhAny / s.flatAny);
+        const Searches search = searches(part);
+        const Rays rays = makeRays(search.flat, width, height);
+        const Speeds s = measure(search, rays, repeat);
+        std::printf("%9zu | %26.2f %5.2f %5.2f %8.2f | %22.2f %5.2f %5.2f %8.2f\n", n, s.flatClosest, s.lanesClosest,
+                    s.bvhClosest, s.bvhClosest / s.lanesClosest, s.flatAny, s.lanesAny, s.bvhAny,
+                    s.bvhAny / s.lanesAny);
       }
     } else if (mode == "heatmap") {
       if (output.empty() || (splitName != "sah" && splitName != "midpoint"))
         return usage();
-      const auto [flat, tree] = flatAndTree(scene, splitName == "sah" ? BvhSplit::Sah : BvhSplit::Midpoint);
+      const Scene tree = searches(scene, splitName == "sah" ? BvhSplit::Sah : BvhSplit::Midpoint).tree;
       const Camera camera = tree.makeCamera(width, height);
       Image image(camera.width(), camera.height());
       double total = 0;
