@@ -27,7 +27,8 @@ void nearestOneByOne(const SphereGroup& g, int first, const Ray& ray, SphereHit&
       continue; // an empty lane
     const Vec3 center(g.centerX[k], g.centerY[k], g.centerZ[k]);
     const Real tmax = best.sphere < 0 ? ray.tmax : best.t;
-    if (const std::optional<Real> t = intersectSphere(ray.origin, ray.direction, center, g.radius[k], ray.tmin, tmax))
+    const std::optional<Real> t = intersectSphere(ray.origin, ray.direction, center, g.radius[k], ray.tmin, tmax);
+    if (t)
       best = SphereHit{*t, first + k};
   }
 }
