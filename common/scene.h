@@ -82,8 +82,8 @@ struct Scene {
   Bvh accelerator;
 
   /// The spheres four to a group, for a scene the BVH does not take (of kLanesMinSpheres or more), where the CPU
-  /// tests four at once (sphere_lanes.h); or an empty list. Filled by buildAccelerator() and used under the same contract as
-  /// `accelerator` (see usesLanes).
+  /// tests four at once (sphere_lanes.h); or an empty list. Filled by buildAccelerator() and used under the same
+  /// contract as `accelerator` (see usesLanes).
   SphereLanes lanes;
 
   /// Builds `accelerator` over `spheres` when there are more than kFlatListMaxSpheres, and empties it otherwise;

@@ -82,7 +82,7 @@ RAYLIFE_AVX2_INLINE bool anyLane(Mask4 m) { return (m[0] | m[1] | m[2] | m[3]) !
 /// [fourAtOnce]
 // The first root of each lane's sphere inside [tmin, tmax), or +∞: intersectSphereRoots and intersectSphere's
 // choice of root, written for four lanes. Each lane does the same IEEE operations in the same order as the
-// scalar code (no fused multiply-add: this is compiled for AVX2 alone), so it gets the same bits.
+// scalar code (and none fused: the build says -ffp-contract=off), so it gets the same bits.
 struct LaneRay {
   Real4 ox, oy, oz, dx, dy, dz, tmin, tmax;
 };
