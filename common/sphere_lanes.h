@@ -10,8 +10,9 @@
 /// The contract is the one-by-one loop's: each lane computes exactly what intersectSphere computes, operation for
 /// operation, so every query returns the same sphere and the same t, bit for bit, as the loop over the same
 /// spheres (the nearest hit in [ray.tmin, ray.tmax), the lowest index on a tie). tests/bvh checks this on millions
-/// of rays. Four at a time needs AVX2 (x86-64 CPUs since 2013); elsewhere the same queries test the lanes one by
-/// one with intersectSphere, so a scene renders the same image on every machine.
+/// of rays. Four at a time needs AVX2 (x86-64 CPUs since 2013). Elsewhere the queries can test the lanes one by
+/// one with intersectSphere (LaneTest::OneByOne), but the scene does not build lanes there and keeps its own loop;
+/// either way a scene renders the same image on every machine.
 #pragma once
 
 #include "math.h"
