@@ -1,7 +1,8 @@
 /// @file bvh.h
 /// @brief A bounding volume hierarchy over spheres: built with the binned surface area heuristic, collapsed to
-/// eight children per node, traversed front to back with the children's boxes tested in float four at a time;
-/// closest-hit and any-hit (shadow ray) queries.
+/// eight children per node, traversed front to back with the children's boxes tested together in float (all
+/// eight in one instruction where the CPU has AVX2, four at a time elsewhere); closest-hit and any-hit (shadow ray)
+/// queries.
 ///
 /// The idea. Testing a ray against every sphere costs N sphere tests. Group the spheres into boxes, the boxes
 /// into bigger boxes, up to one box around everything: a ray that misses a box skips everything inside it, so a
@@ -55,13 +56,13 @@ struct alignas(32) BvhNode {
 static_assert(sizeof(BvhNode) == 32, "a BvhNode is meant to be 32 bytes");
 
 /// One node of the tree the queries walk: the binary tree collapsed so that a node holds up to eight
-/// children, whose boxes are tested together, four at a time. 256 bytes: four cache lines.
+/// children, whose boxes are tested together (eight or four at a time). 256 bytes: four cache lines.
 ///
 /// The boxes are stored by coordinate: row 3·face + axis (face 0 lo, 1 hi; axis 0 x, 1 y, 2 z) holds that
-/// coordinate of all the children's boxes side by side, so that four boxes' worth is one load. A slot without
-/// a child holds an empty box (lo = +∞, hi = −∞). The boxes are BvhNode's, unchanged.
+/// coordinate of all the children's boxes side by side, so that eight (or four) boxes' worth is one load. A slot
+/// without a child holds an empty box (lo = +∞, hi = −∞). The boxes are BvhNode's, unchanged.
 struct alignas(64) BvhWideNode {
-  /// Most children a node holds (a multiple of four).
+  /// Most children a node holds (a multiple of eight: the box test's widest lanes).
   static constexpr int kWidth = 8;
   /// Set in `child` for a leaf.
   static constexpr std::uint32_t kLeaf = 0x80000000u;
@@ -89,6 +90,9 @@ struct BvhBuildOptions {
   BvhSplit split = BvhSplit::Sah; ///< Splitting rule.
   int bins = 12;                  ///< SAH bins per axis over the centroids' box, in [2, 64].
   int maxLeafSize = 4;            ///< A node with more spheres than this is always split, in [1, 255].
+  /// Test a node's eight boxes in one AVX2 instruction where the CPU has AVX2; false, or a CPU without it: four
+  /// at a time (SSE). Either way the same hits and the same work, bit for bit; only the speed differs.
+  bool eightAtOnce = true;
 };
 
 /// The relative costs the SAH weighs (only their ratio matters): one box test, and one ray–sphere test.
@@ -162,6 +166,8 @@ public:
   /// The tree the queries walk (up to BvhWideNode::kWidth children per node), root first, every node before
   /// its children (empty for an empty tree).
   const std::vector<BvhWideNode>& wideNodes() const { return wideNodes_; }
+  /// True when the queries test a node's boxes eight at a time (BvhBuildOptions::eightAtOnce, on a CPU with AVX2).
+  bool eightAtOnce() const { return eightAtOnce_; }
   /// Deepest level of the tree (the root is level 1; 0 for an empty tree). Always below kMaxDepth.
   int depth() const { return depth_; }
 
@@ -188,13 +194,18 @@ private:
     int primitive; // −1: nothing hit
     BvhWork work;  // zero unless counted
   };
-  template <bool kAnyHit, bool kCountWork> Traversal traverse(const Ray& ray) const;
+  // The traversal, with V the lanes of the box test (four or eight floats); the eight-lane one built for AVX2;
+  // and the choice between them.
+  template <bool kAnyHit, bool kCountWork, class V> Traversal traverse(const Ray& ray) const;
+  template <bool kAnyHit, bool kCountWork> Traversal traverseEight(const Ray& ray) const;
+  template <bool kAnyHit, bool kCountWork> Traversal dispatch(const Ray& ray) const;
   std::uint32_t collapse(std::uint32_t node);
 
   std::vector<BvhNode> nodes_;
   std::vector<BvhWideNode> wideNodes_;
   std::vector<Primitive> primitives_;
   int depth_ = 0;
+  bool eightAtOnce_ = false; // the boxes eight at a time (AVX2)
 };
 
 } // namespace raylife

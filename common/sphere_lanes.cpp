@@ -1,4 +1,5 @@
 #include "sphere_lanes.h"
+#include "simd.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,11 +8,8 @@
 #include <limits>
 #include <type_traits>
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#define RAYLIFE_HAS_AVX2_LANES 1
+#if RAYLIFE_HAS_AVX2
 #include <immintrin.h> // _mm256_sqrt_pd, _mm_sqrt_ps: the one lane operation GCC's vector extensions lack
-#else
-#define RAYLIFE_HAS_AVX2_LANES 0
 #endif
 
 namespace raylife {
@@ -43,7 +41,7 @@ bool anyOneByOne(const SphereGroup& g, const Ray& ray)
   return false;
 }
 
-#if RAYLIFE_HAS_AVX2_LANES
+#if RAYLIFE_HAS_AVX2
 // ---- Four at once --------------------------------------------------------------------------------------------
 // Four Reals, and four lanes' yes (all bits set) or no: GCC's vector extensions (which clang builds too), so the
 // code below reads as the arithmetic of one sphere. Every function here is compiled for AVX2, where four doubles
@@ -51,9 +49,6 @@ bool anyOneByOne(const SphereGroup& g, const Ray& ray)
 typedef Real Real4 __attribute__((vector_size(SphereGroup::kWidth * sizeof(Real))));
 using LaneInt = std::conditional_t<sizeof(Real) == 8, std::int64_t, std::int32_t>;
 typedef LaneInt Mask4 __attribute__((vector_size(SphereGroup::kWidth * sizeof(Real))));
-
-#define RAYLIFE_AVX2 [[gnu::target("avx2")]]
-#define RAYLIFE_AVX2_INLINE [[gnu::target("avx2"), gnu::always_inline]] inline
 
 RAYLIFE_AVX2_INLINE Real4 splat(Real x) { return Real4{x, x, x, x}; }
 RAYLIFE_AVX2_INLINE Real4 load(const Real* lanes)
@@ -154,8 +149,6 @@ RAYLIFE_AVX2 bool anyFourAtOnce(std::span<const SphereGroup> groups, const Ray& 
   return false;
 }
 /// [fourAtOnce]
-#undef RAYLIFE_AVX2
-#undef RAYLIFE_AVX2_INLINE
 #endif
 
 } // namespace
@@ -164,11 +157,7 @@ bool laneTestAvailable(LaneTest test)
 {
   if (test == LaneTest::OneByOne)
     return true;
-#if RAYLIFE_HAS_AVX2_LANES
-  return __builtin_cpu_supports("avx2");
-#else
-  return false;
-#endif
+  return cpuHasAvx2();
 }
 
 LaneTest fastestLaneTest()
@@ -194,7 +183,7 @@ std::vector<SphereGroup> groupSpheres(const std::vector<Sphere>& spheres)
 
 std::optional<SphereHit> nearestInGroups(std::span<const SphereGroup> groups, const Ray& ray, LaneTest test)
 {
-#if RAYLIFE_HAS_AVX2_LANES
+#if RAYLIFE_HAS_AVX2
   if (test == LaneTest::FourAtOnce)
     return nearestFourAtOnce(groups, ray);
 #endif
@@ -212,7 +201,7 @@ SphereLanes::SphereLanes(const std::vector<Sphere>& spheres, LaneTest test)
 
 bool anyInGroups(std::span<const SphereGroup> groups, const Ray& ray, LaneTest test)
 {
-#if RAYLIFE_HAS_AVX2_LANES
+#if RAYLIFE_HAS_AVX2
   if (test == LaneTest::FourAtOnce)
     return anyFourAtOnce(groups, ray);
 #endif

@@ -4,6 +4,7 @@
 #include "heat_map.h"
 #include "random_scenes.h"
 #include "scene.h"
+#include "simd.h"
 
 #include <catch2/catch.hpp>
 
@@ -21,13 +22,22 @@ struct Disagreements {
   std::size_t closest = 0;   // different closest hit (presence, sphere or t)
   std::size_t anyHit = 0;    // occluded() disagrees with the closest hit's presence
   std::size_t withWork = 0;  // the counting queries disagree with the plain ones
+  std::size_t boxTests = 0;  // eight boxes at a time and four at a time differ (hit, t or work)
   std::size_t hits = 0;      // rays that hit something (so the test is not all misses)
   std::string first;
 };
 
+bool sameWork(const BvhWork& a, const BvhWork& b)
+{
+  return a.nodesVisited == b.nodesVisited && a.primitivesTested == b.primitivesTested;
+}
+
 Disagreements compare(const std::vector<Sphere>& spheres, std::size_t rays, std::uint64_t seed, Real extent)
 {
-  const Bvh bvh(spheres);
+  const Bvh bvh(spheres); // eight boxes at a time where the CPU has AVX2
+  BvhBuildOptions fourOptions;
+  fourOptions.eightAtOnce = false;
+  const Bvh four(spheres, fourOptions);
   Random random(seed);
   Disagreements d;
   for (std::size_t i = 0; i < rays; ++i) {
@@ -54,6 +64,16 @@ Disagreements compare(const std::vector<Sphere>& spheres, std::size_t rays, std:
     if (counted.hit.has_value() != got.has_value() || (got && counted.hit->primitive != got->primitive) ||
         bvh.occludedWithWork(ray).occluded != expected.has_value())
       ++d.withWork;
+    // The two box tests do the same float operations in lanes of different widths: the same hit, the same t
+    // to the bit, and the same boxes and spheres tested.
+    const BvhTracedHit byFour = four.intersectWithWork(ray);
+    const BvhTracedOcclusion blockedByEight = bvh.occludedWithWork(ray), blockedByFour = four.occludedWithWork(ray);
+    if (byFour.hit.has_value() != counted.hit.has_value() ||
+        (byFour.hit && (byFour.hit->primitive != counted.hit->primitive ||
+                        std::memcmp(&byFour.hit->t, &counted.hit->t, sizeof(Real)) != 0)) ||
+        !sameWork(byFour.work, counted.work) || blockedByFour.occluded != blockedByEight.occluded ||
+        !sameWork(blockedByFour.work, blockedByEight.work))
+      ++d.boxTests;
   }
   return d;
 }
@@ -65,6 +85,7 @@ void checkAgreement(const std::vector<Sphere>& spheres, std::size_t rays, std::u
   CHECK(d.closest == 0);
   CHECK(d.anyHit == 0);
   CHECK(d.withWork == 0);
+  CHECK(d.boxTests == 0);
   CHECK(d.hits > rays / 10); // the rays do meet the spheres
   CHECK(d.hits < rays);      // and some miss
 }
@@ -86,6 +107,18 @@ TEST_CASE("the BVH finds exactly the brute-force hit for a million random rays")
     for (int n : {1, 2, 3, 5, 9, 17})
       checkAgreement(uniformScene(random, n), 20000, std::uint64_t(10 + n), 12);
   }
+}
+
+TEST_CASE("a node's boxes are tested eight at a time where the CPU has AVX2 - four at a time otherwise or when asked")
+{
+  Random random(3);
+  const std::vector<Sphere> spheres = uniformScene(random, 50);
+  BvhBuildOptions four;
+  four.eightAtOnce = false;
+  CHECK(Bvh(spheres).eightAtOnce() == cpuHasAvx2());
+  CHECK_FALSE(Bvh(spheres, four).eightAtOnce());
+  if (!cpuHasAvx2())
+    WARN("this CPU has no AVX2: only the box test four at a time is checked here");
 }
 
 TEST_CASE("ties at the same t go to the lowest index as in the brute-force loop")
@@ -361,17 +394,20 @@ TEST_CASE("rays with a NaN or an infinity in them get what the brute-force loop 
   // pass, and the tree must then visit only real children, not the empty slots of its nodes.
   Random random(29);
   const std::vector<Sphere> spheres = uniformScene(random, 100);
-  const Bvh bvh(spheres);
+  BvhBuildOptions four;
+  four.eightAtOnce = false;
+  const Bvh trees[2] = {Bvh(spheres), Bvh(spheres, four)}; // eight boxes at a time (with AVX2) and four
   const std::vector<Ray> rays = nonFiniteRays(random, 12);
-  for (const Ray& ray : rays) {
-    INFO(describe(ray));
-    const std::optional<Reference> expected = bruteForce(spheres, ray);
-    const std::optional<BvhHit> got = bvh.intersect(ray);
-    REQUIRE(got.has_value() == expected.has_value());
-    if (expected)
-      CHECK(got->primitive == expected->sphere);
-    CHECK(bvh.occluded(ray) == expected.has_value());
-  }
+  for (const Bvh& bvh : trees)
+    for (const Ray& ray : rays) {
+      INFO(describe(ray) << (bvh.eightAtOnce() ? ", eight boxes at a time" : ", four boxes at a time"));
+      const std::optional<Reference> expected = bruteForce(spheres, ray);
+      const std::optional<BvhHit> got = bvh.intersect(ray);
+      REQUIRE(got.has_value() == expected.has_value());
+      if (expected)
+        CHECK(got->primitive == expected->sphere);
+      CHECK(bvh.occluded(ray) == expected.has_value());
+    }
 }
 
 TEST_CASE("the scene uses the BVH above the threshold - the loop below it or when stale - with identical hits")

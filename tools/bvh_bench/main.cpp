@@ -194,10 +194,11 @@ int main(int argc, char** argv)
                   double(shadow.nodesVisited) / double(std::max<std::size_t>(1, rays.shadow.size())),
                   double(shadow.primitivesTested) / double(std::max<std::size_t>(1, rays.shadow.size())));
       std::printf("tree: %zu nodes (%zu bytes), depth %d, SAH cost %.2f; walked as %zu nodes of up to %d children "
-                  "(%zu bytes)\n",
+                  "(%zu bytes), their boxes tested %s at a time\n",
                   tree.accelerator.nodes().size(), tree.accelerator.nodes().size() * sizeof(BvhNode),
                   tree.accelerator.depth(), double(tree.accelerator.sahCost()), tree.accelerator.wideNodes().size(),
-                  BvhWideNode::kWidth, tree.accelerator.wideNodes().size() * sizeof(BvhWideNode));
+                  BvhWideNode::kWidth, tree.accelerator.wideNodes().size() * sizeof(BvhWideNode),
+                  tree.accelerator.eightAtOnce() ? "eight" : "four");
     } else if (mode == "crossover") {
       // The N spheres nearest the focal point, the ground (the largest sphere) always first.
       std::vector<Sphere> ordered = scene.spheres;
