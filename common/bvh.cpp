@@ -305,8 +305,8 @@ template <class V> struct BoxRay {
 template <class V> void fill(V& v, float x) { v = x - V{}; }
 
 /// [slab]
-// The slab test, for four or eight boxes at once. A box is where the ray is inside all three slabs lo ≤ p ≤ hi: for t
-// between the largest entry and the smallest exit. A direction with a zero component works out: 1/d = ±∞ gives
+// The slab test, for four or eight boxes at once. A box is where the ray is inside all three slabs lo ≤ p ≤ hi:
+// for t between the largest entry and the smallest exit. A direction with a zero component works out: 1/d = ±∞ gives
 // entry −∞ and exit +∞ for an origin inside the slab, entry +∞ (a miss) outside; an origin exactly on a face
 // gives 0·∞ = NaN, which min and max ignore (the box is kept, which is safe).
 //

@@ -18,6 +18,7 @@
 /// RAYLIFE_AVX2, and always inlined into its (AVX2) callers: for the small helpers of such a function.
 #define RAYLIFE_AVX2_INLINE [[gnu::target("avx2"), gnu::always_inline]] inline
 #else
+/// 0: this compiler or target cannot build functions for AVX2; every query keeps its baseline code.
 #define RAYLIFE_HAS_AVX2 0
 #endif
 
