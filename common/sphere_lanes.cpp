@@ -2,6 +2,7 @@
 #include "simd.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -72,7 +73,24 @@ RAYLIFE_AVX2_INLINE Real4 copySign(Real4 magnitude, Real4 sign)
   const Mask4 signBit = Mask4{} + (LaneInt(1) << (8 * sizeof(Real) - 1));
   return Real4((Mask4(magnitude) & ~signBit) | (Mask4(sign) & signBit));
 }
-RAYLIFE_AVX2_INLINE bool anyLane(Mask4 m) { return (m[0] | m[1] | m[2] | m[3]) != 0; }
+// One bit a lane, bit k set where lane k's mask is: a sign-bit gather (movemask), not four extracts.
+RAYLIFE_AVX2_INLINE unsigned laneBits(Mask4 m)
+{
+#ifdef RAYLIFE_REAL_IS_FLOAT
+  return unsigned(_mm_movemask_ps(__m128(m)));
+#else
+  return unsigned(_mm256_movemask_pd(__m256d(m)));
+#endif
+}
+RAYLIFE_AVX2_INLINE bool anyLane(Mask4 m) { return laneBits(m) != 0; }
+// The least of the four lanes, in every lane (+∞ stays +∞; no lane is NaN here).
+RAYLIFE_AVX2_INLINE Real4 minAcrossLanes(Real4 v)
+{
+  const Real4 halves = __builtin_shufflevector(v, v, 2, 3, 0, 1);
+  const Real4 m = v < halves ? v : halves;
+  const Real4 pairs = __builtin_shufflevector(m, m, 1, 0, 3, 2);
+  return m < pairs ? m : pairs;
+}
 
 /// [fourAtOnce]
 // The first root of each lane's sphere inside [tmin, tmax), or +∞: intersectSphereRoots and intersectSphere's
@@ -127,16 +145,21 @@ RAYLIFE_AVX2 std::optional<SphereHit> nearestFourAtOnce(std::span<const SphereGr
     best = nearer ? t : best;
     bestGroup = nearer ? Mask4{} + LaneInt(g) : bestGroup;
   }
-  const Real tMin = std::min(std::min(best[0], best[1]), std::min(best[2], best[3]));
-  if (!(tMin < kInfinity))
+  const Real4 tMin = minAcrossLanes(best);
+  if (!(tMin[0] < kInfinity))
     return std::nullopt;
-  SphereHit hit{kInfinity, std::numeric_limits<int>::max()};
-  for (int k = 0; k < SphereGroup::kWidth; ++k) {
-    const int index = int(bestGroup[k]) * SphereGroup::kWidth + k;
-    const bool take = best[k] == tMin && index < hit.sphere; // the lowest index at the minimum
-    hit.t = take ? best[k] : hit.t;
-    hit.sphere = take ? index : hit.sphere;
+  // The lowest index at the minimum. Almost always one lane holds it; which one is random from ray to ray, so it
+  // is found from the lanes' bits rather than by a branch on each lane.
+  unsigned atMin = laneBits(best == tMin);
+  int lane = std::countr_zero(atMin);
+  int index = int(bestGroup[lane]) * SphereGroup::kWidth + lane;
+  for (atMin &= atMin - 1; atMin != 0; atMin &= atMin - 1) { // a tie between lanes
+    const int k = std::countr_zero(atMin), other = int(bestGroup[k]) * SphereGroup::kWidth + k;
+    lane = other < index ? k : lane;
+    index = std::min(index, other);
   }
+  // The lane's own t: equal to the minimum, but of its own sign should the tie be −0 against +0.
+  const SphereHit hit{best[lane], index};
   return hit;
 }
 
