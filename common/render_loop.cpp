@@ -46,17 +46,20 @@ std::vector<Tile> makeTiles(int width, int height)
   return tiles;
 }
 
-// Where sample s of a pixel falls inside it, in [0, 1)².
-Vec2 pixelOffset(PixelSampling mode, std::uint64_t s, std::optional<int> spp, Sampler& sampler)
+// The side of the grid of strata the pixel's samples are spread over: √spp rounded down, or 1 (no strata) when the
+// sample count is not known in advance (--time, adaptive sampling).
+int strataPerSide(std::optional<int> spp) { return spp ? int(std::sqrt(double(*spp))) : 1; }
+
+// Where sample s of a pixel falls inside it, in [0, 1)²: jittered in its stratum when s < n², else anywhere.
+Vec2 pixelOffset(PixelSampling mode, int s, int n, Sampler& sampler)
 {
   if (mode == PixelSampling::Centre)
     return Vec2(Real(0.5));
   const Vec2 jitter = sampler.next2D();
-  const int n = spp ? int(std::sqrt(double(*spp))) : 1;
-  if (n <= 1 || s >= std::uint64_t(n) * std::uint64_t(n))
+  if (n <= 1 || std::int64_t(s) >= std::int64_t(n) * n)
     return jitter;
   // Stratified: cell (s mod n, s div n) of an n × n grid, jittered inside the cell.
-  const Real cx = Real(s % std::uint64_t(n)), cy = Real(s / std::uint64_t(n));
+  const Real cx = Real(s % n), cy = Real(s / n);
   return Vec2((cx + jitter.x) / Real(n), (cy + jitter.y) / Real(n));
 }
 
@@ -102,6 +105,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
   std::vector<Tile> tiles = allTiles; // the work of a batch (adaptive sampling narrows it to the active pixels)
   const int threads = settings.threads > 0 ? settings.threads : omp_get_max_threads();
   const int target = settings.spp ? *settings.spp : (settings.seconds ? 0 : 1); // 0: until the time is spent
+  const int strata = strataPerSide(settings.adaptive ? std::nullopt : settings.spp);
 
   const auto start = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
@@ -175,8 +179,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
             for (int s = s0; s < s1 && active[std::size_t(y) * std::size_t(width) + std::size_t(x)]; ++s) {
               // One pixel sample: its own random numbers, a film position, the chapter's estimate.
               Sampler sampler(settings.seed, x, y, std::uint64_t(s));
-              const Vec2 offset = pixelOffset(settings.pixelSampling, std::uint64_t(s),
-                                              settings.adaptive ? std::nullopt : settings.spp, sampler);
+              const Vec2 offset = pixelOffset(settings.pixelSampling, s, strata, sampler);
               const Ray ray = camera.ray(Vec2(Real(x), Real(y)) + offset);
               Color L = trace(scene, ray, sampler, settings.maxDepth);
               // Guard the film: a NaN, infinite or negative sample is counted and replaced by black.
