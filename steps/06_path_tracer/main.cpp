@@ -45,7 +45,11 @@ Color trace(const Scene& scene, const Ray& primary, Sampler& sampler, int maxDep
     // The integral, by one sample: choose ωi from the BSDF, in the local frame around the outward normal.
     const Frame frame = Frame::fromNormal(hit->normal);
     const Vec3 wo = frame.toLocal(-ray.direction);
-    const std::optional<BsdfSample> bs = bsdfSample(m, wo, sampler.next2D(), sampler.next1D());
+    // Its random numbers are drawn one statement at a time: C++ leaves the order in which a call's arguments are
+    // evaluated open (GCC and clang differ), and the image must not depend on the compiler.
+    const Real uChoice = sampler.next1D();
+    const Vec2 u = sampler.next2D();
+    const std::optional<BsdfSample> bs = bsdfSample(m, wo, u, uChoice);
     if (!bs)
       break;
     beta *= bs->f * std::abs(bs->wi.z) / bs->pdf;

@@ -67,7 +67,9 @@ Color trace(const LightSampler& lights, bool sampleLights, const Scene& scene, c
     }
 
     // The indirect light: choose ωi from the BSDF, as in chapter 6.
-    const std::optional<BsdfSample> bs = bsdfSample(m, wo, sampler.next2D(), sampler.next1D());
+    const Real uChoice = sampler.next1D(); // drawn in this order, as in chapter 6
+    const Vec2 u = sampler.next2D();
+    const std::optional<BsdfSample> bs = bsdfSample(m, wo, u, uChoice);
     if (!bs)
       break;
     beta *= bs->f * std::abs(bs->wi.z) / bs->pdf;

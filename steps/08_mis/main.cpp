@@ -91,7 +91,9 @@ Color trace(const LightSampler& lights, bool sampleLights, Heuristic heuristic, 
     }
 
     // BSDF sampling: the path goes on, and remembers the pdf for the emitter it may hit next.
-    const std::optional<BsdfSample> bs = bsdfSample(m, wo, sampler.next2D(), sampler.next1D());
+    const Real uChoice = sampler.next1D(); // drawn in this order, as in chapter 6
+    const Vec2 u = sampler.next2D();
+    const std::optional<BsdfSample> bs = bsdfSample(m, wo, u, uChoice);
     if (!bs)
       break;
     beta *= bs->f * std::abs(bs->wi.z) / bs->pdf;

@@ -99,7 +99,9 @@ Color traceWith(Mistake mistake, const Scene& scene, const Ray& primary, Sampler
       break;
     const Frame frame = Frame::fromNormal(hit->normal);
     const Vec3 wo = frame.toLocal(-ray.direction);
-    const std::optional<BsdfSample> bs = bsdfSample(m, wo, sampler.next2D(), sampler.next1D());
+    const Real uChoice = sampler.next1D(); // in chapter 6's order
+    const Vec2 u = sampler.next2D();
+    const std::optional<BsdfSample> bs = bsdfSample(m, wo, u, uChoice);
     if (!bs)
       break;
     beta *= mistake == Mistake::LostCosine ? bs->f / bs->pdf : bs->f * std::abs(bs->wi.z) / bs->pdf;
