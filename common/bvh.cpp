@@ -405,8 +405,7 @@ Bvh::Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options)
   }
 
   // The tree the queries walk: up to eight children to a node.
-  wideNodes_.reserve(nodes_.size() / 2 + 1);
-  collapse(0);
+  collapse(0); // (no reserve: a wide node replaces some six built ones, and a guess would be the peak's largest part)
   wideNodes_.shrink_to_fit();
 }
 
