@@ -4,7 +4,7 @@
 //       Mrays/s of the closest-hit query (camera rays) and of the any-hit query (shadow rays towards the point
 //       lights), through the flat loop (one sphere at a time, as chapter 2 writes it), through the flat list four
 //       spheres at a time (sphere_lanes.h, where the CPU has AVX2) and through the BVH, side by side, best of R
-//       interleaved runs.
+//       interleaved runs, each lasting about as long as one pass of the loop.
 //   bvh_bench crossover [SCENE.json] [--repeat R]
 //       The same for the N spheres nearest the focal point (the ground sphere always among them), N = 1 … 64:
 //       where the tree starts to pay (Scene's kFlatListMaxSpheres).
@@ -64,23 +64,26 @@ Rays makeRays(const Scene& scene, int width, int height)
   return rays;
 }
 
-// Seconds for one pass of the closest-hit query over `rays` (the hit count is returned so nothing is optimised out).
-std::pair<double, std::size_t> timeClosest(const Scene& scene, const std::vector<Ray>& rays)
+// Seconds for `passes` passes of the closest-hit query over `rays`, and its hits in one (returned so that nothing
+// is optimised out).
+std::pair<double, std::size_t> timeClosest(const Scene& scene, const std::vector<Ray>& rays, int passes = 1)
 {
   const double start = threadSeconds();
   std::size_t hits = 0;
-  for (const Ray& ray : rays)
-    hits += scene.intersect(ray).has_value();
-  return {threadSeconds() - start, hits};
+  for (int p = 0; p < passes; ++p)
+    for (const Ray& ray : rays)
+      hits += scene.intersect(ray).has_value();
+  return {threadSeconds() - start, hits / std::size_t(passes)};
 }
 
-std::pair<double, std::size_t> timeAny(const Scene& scene, const std::vector<Ray>& rays)
+std::pair<double, std::size_t> timeAny(const Scene& scene, const std::vector<Ray>& rays, int passes = 1)
 {
   const double start = threadSeconds();
   std::size_t blocked = 0;
-  for (const Ray& ray : rays)
-    blocked += scene.occluded(ray);
-  return {threadSeconds() - start, blocked};
+  for (int p = 0; p < passes; ++p)
+    for (const Ray& ray : rays)
+      blocked += scene.occluded(ray);
+  return {threadSeconds() - start, blocked / std::size_t(passes)};
 }
 
 // Mrays/s of the three ways to search the spheres: the loop one by one, the flat list four at a time, the tree.
@@ -104,30 +107,42 @@ Searches searches(const Scene& scene, BvhSplit split = BvhSplit::Sah)
   return s;
 }
 
-// Best of `repeat` interleaved runs of each query through each search (the best run is the least disturbed).
+// Best of `repeat` interleaved runs of each query through each search (the best run is the least disturbed). Each
+// run of a faster search makes as many passes over the rays as it takes to last about as long as one pass of the
+// loop: the best of short runs dodges the machine's disturbances more often than the best of long ones, and
+// would flatter the faster search.
 Speeds measure(const Searches& s, const Rays& rays, int repeat)
 {
-  double best[6] = {1e30, 1e30, 1e30, 1e30, 1e30, 1e30};
   const Scene* scenes[3] = {&s.flat, &s.lanes, &s.tree};
-  std::size_t hits[2] = {0, 0}; // the loop's hits and blocked rays, which the others must match
-  for (int r = 0; r < repeat; ++r)
+  const std::vector<Ray>* queryRays[2] = {&rays.camera, &rays.shadow};
+  auto run = [&](int query, int k, int passes) {
+    return query == 0 ? timeClosest(*scenes[k], *queryRays[0], passes) : timeAny(*scenes[k], *queryRays[1], passes);
+  };
+  int passes[2][3];
+  std::size_t counts[2] = {0, 0}; // the loop's hits and blocked rays, which the others must match
+  for (int query = 0; query < 2; ++query) {
+    const auto loop = run(query, 0, 1);
+    counts[query] = loop.second;
     for (int k = 0; k < 3; ++k) {
-      const auto closest = timeClosest(*scenes[k], rays.camera), any = timeAny(*scenes[k], rays.shadow);
-      if (k == 0) {
-        hits[0] = closest.second;
-        hits[1] = any.second;
-      } else if (closest.second != hits[0] || any.second != hits[1]) {
-        std::fprintf(stderr, "bvh_bench: the searches disagree (%zu/%zu hits, %zu/%zu blocked)\n", hits[0],
-                     closest.second, hits[1], any.second);
-        std::exit(1);
-      }
-      best[k] = std::min(best[k], closest.first);
-      best[3 + k] = std::min(best[3 + k], any.first);
+      const double once = k == 0 ? loop.first : run(query, k, 1).first;
+      passes[query][k] = int(std::clamp(loop.first / std::max(once, 1e-9), 1.0, 1000.0));
     }
-  const double nc = double(rays.camera.size()) / 1e6, ns = double(rays.shadow.size()) / 1e6;
-  auto rate = [](double n, double seconds) { return n / std::max(seconds, 1e-12); };
-  return Speeds{rate(nc, best[0]), rate(nc, best[1]), rate(nc, best[2]),
-                rate(ns, best[3]), rate(ns, best[4]), rate(ns, best[5])};
+  }
+  double best[2][3] = {{1e30, 1e30, 1e30}, {1e30, 1e30, 1e30}};
+  for (int r = 0; r < repeat; ++r)
+    for (int k = 0; k < 3; ++k)
+      for (int query = 0; query < 2; ++query) {
+        const auto [seconds, count] = run(query, k, passes[query][k]);
+        if (count != counts[query]) {
+          std::fprintf(stderr, "bvh_bench: the searches disagree (%zu against %zu %s)\n", count, counts[query],
+                       query == 0 ? "hits" : "blocked rays");
+          std::exit(1);
+        }
+        best[query][k] = std::min(best[query][k], seconds / passes[query][k]);
+      }
+  const double n[2] = {double(rays.camera.size()) / 1e6, double(rays.shadow.size()) / 1e6};
+  auto rate = [&](int query, int k) { return n[query] / std::max(best[query][k], 1e-12); };
+  return Speeds{rate(0, 0), rate(0, 1), rate(0, 2), rate(1, 0), rate(1, 1), rate(1, 2)};
 }
 
 int usage()
