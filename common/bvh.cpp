@@ -405,7 +405,9 @@ Bvh::Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options)
   }
 
   // The tree the queries walk: up to eight children to a node.
-  collapse(0); // (no reserve: a wide node replaces some six built ones, and a guess would be the peak's largest part)
+  // No reserve: the count is not known before the collapse (about a sixth of the built nodes), and a generous guess
+  // would be the largest block at the loader's memory peak.
+  collapse(0);
   wideNodes_.shrink_to_fit();
 }
 
