@@ -46,17 +46,21 @@ std::vector<Tile> makeTiles(int width, int height)
   return tiles;
 }
 
-// The side of the grid of strata the pixel's samples are spread over: √spp rounded down, or 1 (no strata) when the
-// sample count is not known in advance (--time, adaptive sampling).
-int strataPerSide(std::optional<int> spp) { return spp ? int(std::sqrt(double(*spp))) : 1; }
+// The side of the grid of strata the pixel's samples are spread over: √spp rounded down; 0 when the sample count
+// is not known in advance (--time, adaptive sampling), for which the pixel's sequence stratifies instead.
+int strataPerSide(std::optional<int> spp) { return spp ? int(std::sqrt(double(*spp))) : 0; }
 
-// Where sample s of a pixel falls inside it, in [0, 1)²: jittered in its stratum when s < n², else anywhere.
-Vec2 pixelOffset(PixelSampling mode, int s, int n, Sampler& sampler)
+// Where sample s of a pixel falls inside it, in [0, 1)²: jittered in its stratum when s < n², else anywhere; with
+// n = 0, point s of the pixel's scrambled Sobol sequence, stratified at every power of two and in every aligned
+// block of 16 samples (what a pixel takes between two adaptive checkpoints is whole such blocks).
+Vec2 pixelOffset(PixelSampling mode, int s, int n, Sampler& sampler, const PixelSequence& sequence)
 {
   if (mode == PixelSampling::Centre)
     return Vec2(Real(0.5));
+  if (n == 0)
+    return sequence.point(std::uint32_t(s));
   const Vec2 jitter = sampler.next2D();
-  if (n <= 1 || std::int64_t(s) >= std::int64_t(n) * n)
+  if (n == 1 || std::int64_t(s) >= std::int64_t(n) * n)
     return jitter;
   // Stratified: cell (s mod n, s div n) of an n × n grid, jittered inside the cell.
   const Real cx = Real(s % n), cy = Real(s / n);
@@ -175,11 +179,14 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
         const Tile& tile = tiles[t];
         // [pixel_loop]
         for (int y = tile.y0; y < tile.y1; ++y)
-          for (int x = tile.x0; x < tile.x1; ++x)
-            for (int s = s0; s < s1 && active[std::size_t(y) * std::size_t(width) + std::size_t(x)]; ++s) {
+          for (int x = tile.x0; x < tile.x1; ++x) {
+            if (!active[std::size_t(y) * std::size_t(width) + std::size_t(x)])
+              continue; // stopped by adaptive sampling
+            const PixelSequence sequence(settings.seed, x, y);
+            for (int s = s0; s < s1; ++s) {
               // One pixel sample: its own random numbers, a film position, the chapter's estimate.
               Sampler sampler(settings.seed, x, y, std::uint64_t(s));
-              const Vec2 offset = pixelOffset(settings.pixelSampling, s, strata, sampler);
+              const Vec2 offset = pixelOffset(settings.pixelSampling, s, strata, sampler, sequence);
               const Ray ray = camera.ray(Vec2(Real(x), Real(y)) + offset);
               Color L = trace(scene, ray, sampler, settings.maxDepth);
               // Guard the film: a NaN, infinite or negative sample is counted and replaced by black.
@@ -189,6 +196,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
               }
               result.film.add(x, y, L);
             }
+          }
         // [pixel_loop]
         const int tilesFinished = ++tilesDone;
         if (settings.progress && omp_get_thread_num() == 0) {

@@ -40,7 +40,9 @@ enum Feature : unsigned {
 /// Where inside a pixel the samples fall.
 enum class PixelSampling {
   Centre,    ///< Every sample through the pixel's centre (x + ½, y + ½): no anti-aliasing.
-  Jittered,  ///< Stratified jittered: sample s of N lies in cell s of a ⌊√N⌋² grid (uniform beyond it).
+  /// Stratified jittered: sample s of N lies in cell s of a ⌊√N⌋² grid (uniform beyond it). Where N is not known
+  /// in advance (adaptive sampling, --time), sample s is point s of the pixel's PixelSequence (rng.h) instead.
+  Jittered,
 };
 
 /// What the runner needs to know of a chapter.

@@ -86,3 +86,38 @@ TEST_CASE("the adaptive image mean stays within 2 percent of its expectation")
   REQUIRE(onSphere > 50);
   CHECK(std::abs(sum / onSphere - 1.0) < 0.02);
 }
+
+TEST_CASE("adaptive sampling spreads each 16 of a pixel's samples over its 4 x 4 cells")
+{
+  // The film averages each sample's direction (plus 2: the film takes no negative sample), so a pixel's mean shows
+  // where its samples fell. With 16 samples in
+  // [0, 1) across a pixel, uniform positions put the mean's x at a root-mean-square distance of √(1/12/16) = 0.072
+  // of a pixel from the centre; one sample in each of 16 columns (a (0, 4, 2)-net), at about 1/16 of that.
+  const Scene scene = smallScene();
+  const Camera camera = scene.makeCamera();
+  auto direction = [](const Scene&, const Ray& ray, Sampler&, int) { return Color(ray.direction + Vec3(2)); };
+  auto rmsOffset = [&](const RenderResult& r) {
+    const Image mean = r.film.mean();
+    double sum = 0;
+    for (int y = 0; y < camera.height(); ++y)
+      for (int x = 0; x < camera.width(); ++x) {
+        const Real centre = camera.ray(Vec2(Real(x) + Real(0.5), Real(y) + Real(0.5))).direction.x;
+        const Real pixel = camera.ray(Vec2(Real(x) + 1, Real(y) + Real(0.5))).direction.x -
+                           camera.ray(Vec2(Real(x), Real(y) + Real(0.5))).direction.x;
+        const double offset = (double(mean.at(x, y, 0)) - 2 - double(centre)) / double(pixel);
+        sum += offset * offset;
+      }
+    return std::sqrt(sum / (camera.width() * camera.height()));
+  };
+  RenderSettings settings;
+  settings.spp = 16; // the first checkpoint: every pixel takes 16
+  settings.seed = 3;
+  settings.pixelSampling = PixelSampling::Jittered;
+  settings.adaptive = 1e-9;
+  const double adaptive = rmsOffset(render(scene, camera, settings, direction));
+  settings.adaptive.reset();
+  const double grid = rmsOffset(render(scene, camera, settings, direction)); // the 4 x 4 grid of strata
+  INFO("adaptive " << adaptive << ", grid " << grid);
+  CHECK(adaptive < 0.03);
+  CHECK(grid < 0.03);
+}
