@@ -45,7 +45,9 @@ Image Film::varianceOfMean() const
 double Film::relativeError(int x, int y, double floor) const
 {
   const Pixel& p = pixels_[index(x, y)];
-  if (p.count < 2)
+  // A pixel whose every sample was black shows no variance, but that only says nothing reached it yet (a path
+  // tracer's pixel in a dim corner may take many samples to find the light): it is not known to be black.
+  if (p.count < 2 || p.sum == glm::dvec3(0))
     return std::numeric_limits<double>::infinity();
   const double n = double(p.count);
   double worst = 0;

@@ -52,7 +52,8 @@ public:
 
   /// The estimated relative standard error of pixel (x, y)'s mean: the largest over the channels of
   /// sqrt(s²/n) / max(mean, floor), with s² the unbiased sample variance; `floor` (> 0, radiance) keeps dark
-  /// pixels from needing endless samples. +infinity for n < 2 (nothing is known yet).
+  /// pixels from needing endless samples. +infinity for n < 2, and while every sample has been black (nothing
+  /// is known yet: a black pixel of a path tracer may not have found the light).
   double relativeError(int x, int y, double floor) const;
   /// Samples taken in pixel (x, y).
   std::uint32_t samples(int x, int y) const { return pixels_[index(x, y)].count; }

@@ -127,12 +127,23 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
   int nextCheckpoint = kAdaptiveMinSamples;
   while (target == 0 || done < target) {
     if (settings.adaptive && done == nextCheckpoint) {
-      // A checkpoint: stop each pixel whose estimated relative error is below the threshold.
+      // A checkpoint: stop each pixel whose estimated relative error is below the threshold, and its eight
+      // neighbours' too. (Alone, a pixel on an edge whose samples all happened to miss the object shows no
+      // variance and would stop with its error; a neighbour that saw the edge keeps it going.)
+      std::vector<unsigned char> below(active.size());
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x)
+          below[std::size_t(y) * std::size_t(width) + std::size_t(x)] =
+              result.film.relativeError(x, y, kAdaptiveMeanFloor) < *settings.adaptive;
       activeCount = 0;
       for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x) {
           unsigned char& a = active[std::size_t(y) * std::size_t(width) + std::size_t(x)];
-          if (a && result.film.relativeError(x, y, kAdaptiveMeanFloor) < *settings.adaptive)
+          bool settled = true;
+          for (int ny = std::max(0, y - 1); ny <= std::min(height - 1, y + 1); ++ny)
+            for (int nx = std::max(0, x - 1); nx <= std::min(width - 1, x + 1); ++nx)
+              settled = settled && below[std::size_t(ny) * std::size_t(width) + std::size_t(nx)];
+          if (a && settled)
             a = 0;
           activeCount += a;
         }

@@ -106,10 +106,11 @@ inline constexpr double kAdaptiveMeanFloor = 1.0 / 256.0;
 /// the order of s, so the image is bit-identical for any thread count (and any batching). With `seconds`,
 /// batches continue until the budget is spent (at least one sample), each cut to what is left of it; `stop`
 /// is looked at between batches. Every pixel has the same number of samples, unless `settings.adaptive` is set:
-/// then, at kAdaptiveMinSamples samples and at fixed counts after (see there), each pixel whose
-/// Film::relativeError(kAdaptiveMeanFloor) is below the threshold stops taking samples (batches end at these
-/// points, so which pixels go on depends only on the seed). Samples then fall uniformly in the pixel (the
-/// stratification assumes every pixel takes every sample). Biased: the stopping rule correlates with the samples.
+/// then, at kAdaptiveMinSamples samples and at fixed counts after (multiples of 16), each pixel whose
+/// Film::relativeError(kAdaptiveMeanFloor) is below the threshold, and whose eight neighbours' is too, stops
+/// taking samples (batches end at these points, so which pixels go on depends only on the seed). Sample
+/// positions then follow the pixel's PixelSequence (the grid of strata assumes every pixel takes every sample).
+/// Biased, slightly: the stopping rule correlates with the samples.
 /// The render ends when every pixel has stopped, or at `spp` (then the most any pixel took) or `seconds`.
 RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
                     const TraceFunction& trace);

@@ -6,6 +6,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 using namespace raylife;
@@ -44,7 +45,7 @@ TEST_CASE("adaptive sampling gives a bit-identical image and sample counts on 1 
   CHECK(one.meanSpp < 256); // it did stop some pixels
 }
 
-TEST_CASE("a pixel of constant value stops at the minimum sample count and a noisy one goes on")
+TEST_CASE("a constant pixel stops at 16 samples unless a neighbour is noisy, and a noisy one goes on")
 {
   const Scene scene = smallScene();
   const Camera camera = scene.makeCamera();
@@ -60,6 +61,24 @@ TEST_CASE("a pixel of constant value stops at the minimum sample count and a noi
   CHECK(r.spp == 256);
   CHECK(r.meanSpp > kAdaptiveMinSamples);
   CHECK(r.meanSpp < 256);
+
+  // A pixel just off an edge may see only the background in its first samples; it stops only once its
+  // neighbours have settled too (here they never do).
+  const int w = camera.width(), h = camera.height();
+  int besideNoise = 0, kept = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (r.film.relativeError(x, y, kAdaptiveMeanFloor) != 0)
+        continue; // not a constant pixel
+      bool noisyNeighbour = false;
+      for (int ny = std::max(0, y - 1); ny <= std::min(h - 1, y + 1); ++ny)
+        for (int nx = std::max(0, x - 1); nx <= std::min(w - 1, x + 1); ++nx)
+          noisyNeighbour = noisyNeighbour || r.film.relativeError(nx, ny, kAdaptiveMeanFloor) > 0.01;
+      besideNoise += noisyNeighbour;
+      kept += noisyNeighbour && r.film.samples(x, y) == 256u;
+    }
+  CHECK(besideNoise > 0);
+  CHECK(kept == besideNoise);
 }
 
 TEST_CASE("the adaptive image mean stays within 2 percent of its expectation")
@@ -120,4 +139,19 @@ TEST_CASE("adaptive sampling spreads each 16 of a pixel's samples over its 4 x 4
   INFO("adaptive " << adaptive << ", grid " << grid);
   CHECK(adaptive < 0.03);
   CHECK(grid < 0.03);
+}
+
+TEST_CASE("a pixel whose samples were all black is not taken as known")
+{
+  // In a path tracer, 16 black samples in a dim corner say that no path found the light yet, not that the pixel is
+  // black: its error is unknown (+infinity) until a sample is not black. A constant non-black pixel is known.
+  Film film(2, 1);
+  for (int s = 0; s < 64; ++s) {
+    film.add(0, 0, Color(0));
+    film.add(1, 0, Color(Real(0.25)));
+  }
+  CHECK(std::isinf(film.relativeError(0, 0, kAdaptiveMeanFloor)));
+  CHECK(film.relativeError(1, 0, kAdaptiveMeanFloor) == 0);
+  film.add(0, 0, Color(0, Real(0.5), 0));
+  CHECK(std::isfinite(film.relativeError(0, 0, kAdaptiveMeanFloor)));
 }

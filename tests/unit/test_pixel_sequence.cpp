@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <tuple>
 #include <vector>
 
 using namespace raylife;
@@ -24,7 +25,8 @@ TEST_CASE("Sobol's second dimension starts as the published sequence")
 TEST_CASE("every aligned block of 2^k points of a pixel's sequence is a (0, k, 2)-net")
 {
   // In each block, every box of 2^i by 2^(k-i) cells holds exactly one point, for every split i of k.
-  for (const auto& [seed, x, y] : std::vector<std::tuple<std::uint64_t, int, int>>{{0, 0, 0}, {7, 13, 2}, {99, 319, 239}}) {
+  const std::vector<std::tuple<std::uint64_t, int, int>> pixels{{0, 0, 0}, {7, 13, 2}, {99, 319, 239}};
+  for (const auto& [seed, x, y] : pixels) {
     const PixelSequence sequence(seed, x, y);
     for (int k = 0; k <= 8; ++k)
       for (std::uint32_t block = 0; block < 3; ++block) {
