@@ -132,9 +132,12 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
       // variance and would stop with its error; a neighbour that saw the edge keeps it going.)
       std::vector<unsigned char> below(active.size());
       for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x)
-          below[std::size_t(y) * std::size_t(width) + std::size_t(x)] =
-              result.film.relativeError(x, y, kAdaptiveMeanFloor) < *settings.adaptive;
+        for (int x = 0; x < width; ++x) {
+          const double error = result.film.relativeError(x, y, kAdaptiveMeanFloor);
+          // (+∞ at this count: every sample black; after kAdaptiveBlackSamples of them, taken as black.)
+          const bool black = std::isinf(error) && result.film.samples(x, y) >= std::uint32_t(kAdaptiveBlackSamples);
+          below[std::size_t(y) * std::size_t(width) + std::size_t(x)] = error < *settings.adaptive || black;
+        }
       activeCount = 0;
       for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x) {

@@ -94,6 +94,10 @@ struct RenderResult {
 /// Fewer samples give too rough an estimate of the variance: a pixel whose first few samples happen to agree
 /// (all missing a small light, say) would stop with a large error.
 inline constexpr int kAdaptiveMinSamples = 16;
+/// Samples after which adaptive sampling takes a pixel whose samples have all been black to be black (its error is
+/// unknown until then: Film::relativeError): a path tracer's pixel in a dim corner may need many samples to find
+/// the light, but a pixel that looks at a black background never will.
+inline constexpr int kAdaptiveBlackSamples = 64;
 /// Radiance below which adaptive sampling measures a pixel's error absolutely rather than relative to its mean:
 /// 1/256 of white, about one 8-bit step, so that near-black pixels do not take samples without end.
 inline constexpr double kAdaptiveMeanFloor = 1.0 / 256.0;

@@ -155,3 +155,18 @@ TEST_CASE("a pixel whose samples were all black is not taken as known")
   film.add(0, 0, Color(0, Real(0.5), 0));
   CHECK(std::isfinite(film.relativeError(0, 0, kAdaptiveMeanFloor)));
 }
+
+TEST_CASE("a pixel that stays black stops after kAdaptiveBlackSamples")
+{
+  // A black background: every sample 0. Unknown at 16 samples, taken as black at 64, not rendered to the end.
+  const Scene scene = smallScene();
+  const Camera camera = scene.makeCamera();
+  RenderSettings settings;
+  settings.spp = 256;
+  settings.adaptive = 0.01;
+  const RenderResult r = render(scene, camera, settings, [](const Scene&, const Ray&, Sampler&, int) {
+    return Color(0);
+  });
+  CHECK(r.film.samples(0, 0) == std::uint32_t(kAdaptiveBlackSamples));
+  CHECK(r.meanSpp == double(kAdaptiveBlackSamples));
+}
