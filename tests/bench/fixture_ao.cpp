@@ -59,6 +59,7 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = FIXTURE_NAME,
                             .defaultScene = "spheres.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesBackground,
-                            .pixelSampling = PixelSampling::Centre};
+                            .pixelSampling = PixelSampling::Centre,
+                            .adaptiveSampling = true};
   return runChapter(argc, argv, chapter, trace);
 }

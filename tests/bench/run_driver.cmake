@@ -2,6 +2,7 @@
 # -DBENCH -DBIN -DWORK -DSCENE -DCASE=unbiased|biased
 file(REMOVE_RECURSE ${WORK})
 set(common --bin ${BIN} --no-float --no-plots --scenes ${SCENE} --size 32x24 --spp 1,2,4,8,16,32 --times 0.05
+    --adaptive 0.1,0.03
     --seeds 2 --reference-spp 2048 --check-spp 512 --threads-spp 8 --threads 2
     --out ${WORK}/out --references ${WORK}/references)
 if(CASE STREQUAL "unbiased")
@@ -33,14 +34,35 @@ foreach(f results.csv summary.md error_vs_spp.gp error_vs_time.gp)
     message(FATAL_ERROR "raylife_bench did not write ${f}")
   endif()
 endforeach()
-# Rows: per chapter 6 spp x 2 seeds, 1 time x 2 seeds, 2 one-thread runs (8 spp is on the ladder): 16; two chapters.
+# Rows: per chapter 6 spp x 2 seeds, 1 time x 2 seeds, 2 one-thread runs (8 spp is on the ladder), 2 adaptive
+# thresholds x 2 seeds: 20; two chapters.
 file(STRINGS ${WORK}/out/results.csv lines)
 list(LENGTH lines count)
-if(NOT count EQUAL 33)
-  message(FATAL_ERROR "results.csv has ${count} lines, not 1 + 32")
+if(NOT count EQUAL 41)
+  message(FATAL_ERROR "results.csv has ${count} lines, not 1 + 40")
+endif()
+# The adaptive rows: threshold unit E, capped at the ladder's top (32 spp), and the scene's background lets pixels stop
+# early, so the mean spp is below the most any pixel took (sample counts are deterministic, not timings).
+set(adaptive 0)
+foreach(line IN LISTS lines)
+  if(line MATCHES ",adaptive,")
+    math(EXPR adaptive "${adaptive} + 1")
+    if(NOT line MATCHES ",E,([0-9]+),([0-9.e+-]+),")
+      message(FATAL_ERROR "an adaptive row lacks its threshold unit or spp: ${line}")
+    endif()
+    set(most ${CMAKE_MATCH_1})
+    set(mean ${CMAKE_MATCH_2})
+    if(NOT most EQUAL 32 OR NOT mean LESS most)
+      message(FATAL_ERROR "an adaptive row took ${most} spp at most and ${mean} on average: ${line}")
+    endif()
+  endif()
+endforeach()
+if(NOT adaptive EQUAL 8)
+  message(FATAL_ERROR "results.csv has ${adaptive} adaptive rows, not 8")
 endif()
 file(READ ${WORK}/out/summary.md summary)
-foreach(needle "**trusted**" "bench_fixture_ao_cosine" "Thread scaling" "within ±0.15 of −1")
+foreach(needle "**trusted**" "bench_fixture_ao_cosine" "Thread scaling" "within ±0.15 of −1" "## Adaptive sampling"
+        "| spheres.json | bench_fixture_ao_cosine | 0.03 |")
   string(FIND "${summary}" "${needle}" at)
   if(at EQUAL -1)
     message(FATAL_ERROR "summary.md lacks '${needle}':\n${summary}")

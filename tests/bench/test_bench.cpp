@@ -35,8 +35,9 @@ Row makeRow(const std::string& chapter, RowKind kind, double budget, bool isTime
   r.threads = threads;
   r.seed = seed;
   r.budget = budget;
-  r.budgetIsTime = isTime;
+  r.unit = kind == RowKind::Adaptive ? BudgetUnit::RelativeError : isTime ? BudgetUnit::Seconds : BudgetUnit::Spp;
   r.spp = spp;
+  r.meanSpp = spp;
   r.seconds = seconds;
   r.rays = std::uint64_t(spp) * 1000;
   r.error.relativeMse = mse;
@@ -139,6 +140,10 @@ TEST_CASE("slopes outside -1 +- 0.15 are flagged")
   CHECK_FALSE(slopeAcceptable(-0.8));
   CHECK_FALSE(slopeAcceptable(-1.2));
   CHECK_FALSE(slopeAcceptable(0.0));
+  // The verdict says which way: a bias flattens the slope, stratification steepens it.
+  CHECK(slopeVerdict(-1.1) == "within ±0.15 of −1");
+  CHECK(slopeVerdict(-0.8).find("**FLAGGED**: shallower") == 0);
+  CHECK(slopeVerdict(-1.2).find("**FLAGGED**: steeper") == 0);
 }
 
 TEST_CASE("FNV-1a 64 matches its published test vectors")
@@ -203,6 +208,15 @@ TEST_CASE("the stats a chapter writes are read field by field")
   CHECK(s.badSamples == 3);
   CHECK(s.threads == 2);
   CHECK_FALSE(s.interrupted);
+  // Stats written before adaptive sampling have no mean_spp: it is the spp.
+  CHECK(s.meanSpp == 17);
+  CHECK_FALSE(s.adaptive);
+  const RenderStats a = parseStats(R"({"chapter": "step06_path_tracer", "width": 128, "height": 96, "spp": 512,
+      "seconds": 0.5, "rays": 1000, "bad_samples": 0, "threads": 2, "interrupted": false, "mean_spp": 20.25,
+      "adaptive": true})");
+  CHECK(a.spp == 512);
+  CHECK(a.meanSpp == 20.25);
+  CHECK(a.adaptive);
   CHECK_THROWS_AS(parseStats(R"({"chapter": "x", "width": 1})"), std::runtime_error);
   CHECK_THROWS_AS(parseStats("not json"), std::runtime_error);
   CHECK_THROWS_AS(parseStats(R"({"chapter": 5, "width": 1, "height": 1, "spp": 1, "seconds": 1, "rays": 1,
@@ -226,16 +240,15 @@ TEST_CASE("a CSV line has the header's columns and reads back to the same row")
   r.badSamples = 2;
   const std::string line = csvLine(r);
   CHECK(splitCsvLine(line).size() == splitCsvLine(csvHeader()).size());
-  CHECK(csvHeader().rfind("mode,kind,scene,chapter,precision,build,threads,seed,budget,budget_unit,spp,seconds,rays,"
-                          "bad_samples,rel_mse,rmse,ref_rel_mse,efficiency",
-                          0) == 0);
+  CHECK(csvHeader() == "mode,kind,scene,chapter,precision,build,threads,seed,budget,budget_unit,spp,mean_spp,seconds,"
+                       "rays,bad_samples,rel_mse,rmse,ref_rel_mse,efficiency");
   const std::vector<Row> back = parseCsv(csvHeader() + "\n" + line + "\n");
   REQUIRE(back.size() == 1);
   const Row& b = back[0];
   CHECK(b.mode == r.mode);
   CHECK(b.kind == RowKind::Time);
   CHECK(b.build == r.build);
-  CHECK(b.budgetIsTime);
+  CHECK(b.unit == BudgetUnit::Seconds);
   CHECK(b.budget == r.budget);
   CHECK(b.spp == 37);
   CHECK(b.seconds == r.seconds); // full precision
@@ -244,6 +257,122 @@ TEST_CASE("a CSV line has the header's columns and reads back to the same row")
   CHECK(b.rays == r.rays);
   CHECK(b.badSamples == 2);
   CHECK(b.efficiency() == Approx(r.efficiency()));
+}
+
+TEST_CASE("an adaptive row keeps its threshold and mean spp through the CSV")
+{
+  Row r = makeRow("step06_path_tracer", RowKind::Adaptive, 0.05, false, 512, 0.25, 1e-5);
+  r.meanSpp = 19.875;
+  const std::vector<Row> back = parseCsv(csvHeader() + "\n" + csvLine(r) + "\n");
+  REQUIRE(back.size() == 1);
+  CHECK(back[0].kind == RowKind::Adaptive);
+  CHECK(back[0].unit == BudgetUnit::RelativeError);
+  CHECK(back[0].budget == 0.05);
+  CHECK(back[0].spp == 512);
+  CHECK(back[0].meanSpp == 19.875);
+  CHECK(csvLine(r).find(",adaptive,") != std::string::npos);
+  CHECK(csvLine(r).find(",0.050000000000000003,E,512,19.875,") != std::string::npos);
+  CHECK(budgetUnitFromString("E") == BudgetUnit::RelativeError);
+  CHECK_THROWS_AS(budgetUnitFromString("minutes"), std::invalid_argument);
+  CHECK(rowKindFromString("adaptive") == RowKind::Adaptive);
+}
+
+TEST_CASE("a CSV written before mean_spp reads back with mean spp equal to spp")
+{
+  // The header and a line of the driver before adaptive sampling (no mean_spp column).
+  const std::string old = "mode,kind,scene,chapter,precision,build,threads,seed,budget,budget_unit,spp,seconds,rays,"
+                          "bad_samples,rel_mse,rmse,ref_rel_mse,efficiency\n"
+                          "quick,time,cornell.json,step06_path_tracer,double,b,2,1,0.5,s,37,0.5,1000,0,0.1,0.3,"
+                          "0.001,20\n";
+  const std::vector<Row> rows = parseCsv(old);
+  REQUIRE(rows.size() == 1);
+  CHECK(rows[0].spp == 37);
+  CHECK(rows[0].meanSpp == 37);
+  CHECK(rows[0].unit == BudgetUnit::Seconds);
+  CHECK(rows[0].error.relativeMse == 0.1);
+  // A header with a column missing that is not optional, or one out of order, is refused.
+  std::string noRays = old;
+  noRays.replace(noRays.find(",rays"), 5, "");
+  CHECK_THROWS_AS(parseCsv(noRays), std::invalid_argument);
+  std::string swapped = old;
+  swapped.replace(swapped.find("spp,seconds"), 11, "seconds,spp");
+  CHECK_THROWS_AS(parseCsv(swapped), std::invalid_argument);
+}
+
+TEST_CASE("the plain ladder's time at an adaptive render's error is interpolated log-log or bounded")
+{
+  // MSE = 1/spp, seconds = spp / 10: a perfect ladder from 1 to 16 spp.
+  std::vector<LadderPoint> plain;
+  for (int n = 1; n <= 16; n *= 2) {
+    LadderPoint p;
+    p.budget = n;
+    p.spp = n;
+    p.seconds = 0.1 * n;
+    p.relativeMse = 1.0 / n;
+    plain.push_back(p);
+  }
+  // Between rungs 4 and 8: error 1/6 lies at spp 6 on the log-log line.
+  const std::optional<EqualError> mid = plainAtEqualError(plain, 1.0 / 6);
+  REQUIRE(mid);
+  CHECK(mid->bound == EqualError::Bound::Interpolated);
+  CHECK(mid->spp == Approx(6));
+  CHECK(mid->seconds == Approx(0.6));
+  // On a rung: that rung.
+  const std::optional<EqualError> on = plainAtEqualError(plain, 0.25);
+  REQUIRE(on);
+  CHECK(on->spp == Approx(4));
+  // Below every rung's error: at least the 16-spp rung; above: at most the 1-spp rung.
+  const std::optional<EqualError> below = plainAtEqualError(plain, 0.01);
+  REQUIRE(below);
+  CHECK(below->bound == EqualError::Bound::AtLeast);
+  CHECK(below->spp == 16);
+  CHECK(below->seconds == Approx(1.6));
+  const std::optional<EqualError> above = plainAtEqualError(plain, 3);
+  REQUIRE(above);
+  CHECK(above->bound == EqualError::Bound::AtMost);
+  CHECK(above->spp == 1);
+  // Nothing to compare with.
+  CHECK_FALSE(plainAtEqualError({}, 0.1));
+  CHECK_FALSE(plainAtEqualError(plain, 0));
+  // A noisy ladder whose error rises between two rungs crosses 0.55 twice, between 1 and 2 spp and between 2
+  // and 4: the cheaper crossing is taken, so that the time saved is not overstated.
+  plain[2].relativeMse = 0.6; // 4 spp now worse than 2 spp (0.5)
+  const std::optional<EqualError> noisy = plainAtEqualError(plain, 0.55);
+  REQUIRE(noisy);
+  CHECK(noisy->spp > 1);
+  CHECK(noisy->spp < 2);
+}
+
+TEST_CASE("the summary sets each adaptive render against the plain ladder at equal error")
+{
+  std::vector<Row> rows;
+  for (int n = 1; n <= 64; n *= 2)
+    rows.push_back(makeRow("step06_path_tracer", RowKind::Spp, n, false, n, 0.01 * n, 1.0 / n));
+  // Reaches the 32-spp error (1/32) in 0.08 s where the ladder takes 0.32 s: 75% saved.
+  Row good = makeRow("step06_path_tracer", RowKind::Adaptive, 0.05, false, 256, 0.08, 1.0 / 32);
+  good.meanSpp = 8.5;
+  good.rays = 123456;
+  rows.push_back(good);
+  // Below the ladder's least error (1/64, 0.64 s) in 0.16 s: at least 75% saved.
+  rows.push_back(makeRow("step06_path_tracer", RowKind::Adaptive, 0.01, false, 256, 0.16, 1.0 / 128));
+  // Below the ladder's least error but slower than its top rung: the bound says nothing about the saving.
+  rows.push_back(makeRow("step06_path_tracer", RowKind::Adaptive, 0.005, false, 256, 2.0, 1.0 / 256));
+  // Worse than the cheapest rung, and slower: at most -100% saved (it costs more).
+  rows.push_back(makeRow("step06_path_tracer", RowKind::Adaptive, 0.5, false, 256, 0.02, 2.0));
+  SummaryContext c;
+  c.mode = "quick";
+  const std::string md = summaryMarkdown(rows, c);
+  CAPTURE(md);
+  CHECK(md.find("## Adaptive sampling") != std::string::npos);
+  CHECK(md.find("| cornell.json | step06_path_tracer | 0.05 | 256 | 8.5 | 0.08 | 1.23e+05 | 0.03125 | 32 | 0.32 | 75% |") !=
+        std::string::npos);
+  CHECK(md.find("| 0.01 | 256 | 256 | 0.16 | 2.56e+05 | 0.007812 | ≥ 64 | ≥ 0.64 | ≥ 75% |") != std::string::npos);
+  CHECK(md.find("| 0.005 | 256 | 256 | 2 | 2.56e+05 | 0.003906 | ≥ 64 | ≥ 0.64 | beyond the ladder |") !=
+        std::string::npos);
+  CHECK(md.find("| 0.5 | 256 | 256 | 0.02 | 2.56e+05 | 2 | ≤ 1 | ≤ 0.01 | ≤ -100% |") != std::string::npos);
+  // Without adaptive rows there is no such section.
+  rows.resize(7);
+  CHECK(summaryMarkdown(rows, c).find("## Adaptive sampling") == std::string::npos);
 }
 
 TEST_CASE("CSV fields with commas and quotes are quoted and split back")
@@ -355,4 +484,14 @@ TEST_CASE("the plot script draws every series and the ideal 1/N line into SVG an
   CHECK(gp.find("title \"step06_path_tracer\"") != std::string::npos);
   CHECK(gp.find("$d0_1 using 1:2 with points") != std::string::npos);
   CHECK(gp.find("4 0.2\n") != std::string::npos);
+  // Series of one chapter share its colour; an adaptive one is dashed with open circles, a float one squares.
+  PlotPanel q{"adaptive.json", {{"step07_light_sampling", {1, 2}, {0.8, 0.4}, false, false, 2},
+                                {"step07 adaptive", {1.5}, {0.3}, false, true, 2},
+                                {"step07 float build", {2}, {0.41}, true, false, 2, 5}},
+              std::nullopt};
+  const std::string gq = gnuplotScript({q}, "render seconds", "relative MSE", "/tmp/out/error_vs_time");
+  CHECK(gq.find("$d0_0 using 1:2 with linespoints ps 0.8 lw 2 pt 7 lc 2 title") != std::string::npos);
+  CHECK(gq.find("$d0_1 using 1:2 with linespoints ps 1.2 lw 2 dt 4 pt 6 lc 2 title \"step07 adaptive\"") !=
+        std::string::npos);
+  CHECK(gq.find("$d0_2 using 1:2 with points ps 1.2 pt 5 lc 2 title") != std::string::npos);
 }

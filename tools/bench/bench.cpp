@@ -72,6 +72,16 @@ LineFit fitLogLog(const std::vector<double>& x, const std::vector<double>& y)
 
 bool slopeAcceptable(double slope) { return std::abs(slope - kIdealSlope) <= kSlopeTolerance; }
 
+std::string slopeVerdict(double slope)
+{
+  if (slopeAcceptable(slope))
+    return "within ±0.15 of −1";
+  if (slope > kIdealSlope)
+    return "**FLAGGED**: shallower than 1/N (an error floor, as a bias gives)";
+  return "**FLAGGED**: steeper than 1/N (as stratified pixel positions give where edges carry the error; a bias "
+         "would make it shallower)";
+}
+
 std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t hash)
 {
   for (const char c : bytes) {
@@ -138,6 +148,8 @@ RenderStats parseStats(const std::string& text)
     s.badSamples = field("bad_samples").get<std::uint64_t>();
     s.threads = field("threads").get<int>();
     s.interrupted = field("interrupted").get<bool>();
+    s.meanSpp = j.contains("mean_spp") ? j.at("mean_spp").get<double>() : double(s.spp);
+    s.adaptive = j.contains("adaptive") && j.at("adaptive").get<bool>();
   } catch (const nlohmann::json::exception& e) {
     throw std::runtime_error(std::string("stats: a field has the wrong type: ") + e.what());
   }
@@ -151,16 +163,35 @@ std::string toString(RowKind kind)
   case RowKind::Time: return "time";
   case RowKind::Threads: return "threads";
   case RowKind::Precision: return "precision";
+  case RowKind::Adaptive: return "adaptive";
   }
   return "?";
 }
 
 RowKind rowKindFromString(const std::string& text)
 {
-  for (RowKind k : {RowKind::Spp, RowKind::Time, RowKind::Threads, RowKind::Precision})
+  for (RowKind k : {RowKind::Spp, RowKind::Time, RowKind::Threads, RowKind::Precision, RowKind::Adaptive})
     if (toString(k) == text)
       return k;
   throw std::invalid_argument("unknown row kind '" + text + "'");
+}
+
+std::string toString(BudgetUnit unit)
+{
+  switch (unit) {
+  case BudgetUnit::Spp: return "spp";
+  case BudgetUnit::Seconds: return "s";
+  case BudgetUnit::RelativeError: return "E";
+  }
+  return "?";
+}
+
+BudgetUnit budgetUnitFromString(const std::string& text)
+{
+  for (BudgetUnit u : {BudgetUnit::Spp, BudgetUnit::Seconds, BudgetUnit::RelativeError})
+    if (toString(u) == text)
+      return u;
+  throw std::invalid_argument("CSV: budget_unit '" + text + "' is none of spp, s and E");
 }
 
 double Row::efficiency() const
@@ -171,8 +202,11 @@ double Row::efficiency() const
 namespace {
 
 const std::vector<std::string> kColumns = {
-    "mode",    "kind",    "scene",   "chapter",     "precision", "build", "threads",      "seed",    "budget",
-    "budget_unit", "spp", "seconds", "rays",        "bad_samples", "rel_mse", "rmse", "ref_rel_mse", "efficiency"};
+    "mode",        "kind", "scene",    "chapter", "precision",   "build",   "threads", "seed",        "budget",
+    "budget_unit", "spp",  "mean_spp", "seconds", "rays",        "bad_samples", "rel_mse", "rmse", "ref_rel_mse",
+    "efficiency"};
+// The columns a CSV may lack, written by an earlier driver (mean_spp then reads as spp).
+const std::vector<std::string> kOptionalColumns = {"mean_spp"};
 
 std::string quoteField(const std::string& s)
 {
@@ -231,8 +265,9 @@ std::string csvLine(const Row& r)
       std::to_string(r.threads),
       std::to_string(r.seed),
       exact(r.budget),
-      r.budgetIsTime ? "s" : "spp",
+      toString(r.unit),
       std::to_string(r.spp),
+      exact(r.meanSpp),
       exact(r.seconds),
       std::to_string(r.rays),
       std::to_string(r.badSamples),
@@ -281,36 +316,48 @@ std::vector<Row> parseCsv(const std::string& text)
 {
   std::istringstream in(text);
   std::string line;
-  if (!std::getline(in, line) || line != csvHeader())
+  if (!std::getline(in, line))
+    throw std::invalid_argument("CSV: the first line is not the benchmark's header");
+  // The header names the columns; every one of kColumns must be there, but those of kOptionalColumns.
+  const std::vector<std::string> header = splitCsvLine(line);
+  std::map<std::string, std::size_t> at;
+  for (std::size_t i = 0; i < header.size(); ++i)
+    at[header[i]] = i;
+  std::vector<std::string> expected;
+  for (const std::string& c : kColumns)
+    if (at.count(c) || std::find(kOptionalColumns.begin(), kOptionalColumns.end(), c) == kOptionalColumns.end())
+      expected.push_back(c);
+  if (header != expected)
     throw std::invalid_argument("CSV: the first line is not the benchmark's header");
   std::vector<Row> rows;
   while (std::getline(in, line)) {
     if (line.empty())
       continue;
     const std::vector<std::string> f = splitCsvLine(line);
-    if (f.size() != kColumns.size())
+    if (f.size() != header.size())
       throw std::invalid_argument("CSV: a line has " + std::to_string(f.size()) + " fields, not " +
-                                  std::to_string(kColumns.size()) + ": " + line);
+                                  std::to_string(header.size()) + ": " + line);
+    auto field = [&](const std::string& column) -> const std::string& { return f[at.at(column)]; };
+    auto number = [&](const std::string& column) { return toDouble(field(column), column); };
     Row r;
-    r.mode = f[0];
-    r.kind = rowKindFromString(f[1]);
-    r.scene = f[2];
-    r.chapter = f[3];
-    r.precision = f[4];
-    r.build = f[5];
-    r.threads = int(toDouble(f[6], kColumns[6]));
-    r.seed = std::uint64_t(toDouble(f[7], kColumns[7]));
-    r.budget = toDouble(f[8], kColumns[8]);
-    if (f[9] != "s" && f[9] != "spp")
-      throw std::invalid_argument("CSV: budget_unit '" + f[9] + "' is neither s nor spp");
-    r.budgetIsTime = f[9] == "s";
-    r.spp = int(toDouble(f[10], kColumns[10]));
-    r.seconds = toDouble(f[11], kColumns[11]);
-    r.rays = std::uint64_t(toDouble(f[12], kColumns[12]));
-    r.badSamples = std::uint64_t(toDouble(f[13], kColumns[13]));
-    r.error.relativeMse = toDouble(f[14], kColumns[14]);
-    r.error.rmse = toDouble(f[15], kColumns[15]);
-    r.error.referenceRelativeMse = toDouble(f[16], kColumns[16]);
+    r.mode = field("mode");
+    r.kind = rowKindFromString(field("kind"));
+    r.scene = field("scene");
+    r.chapter = field("chapter");
+    r.precision = field("precision");
+    r.build = field("build");
+    r.threads = int(number("threads"));
+    r.seed = std::uint64_t(number("seed"));
+    r.budget = number("budget");
+    r.unit = budgetUnitFromString(field("budget_unit"));
+    r.spp = int(number("spp"));
+    r.meanSpp = at.count("mean_spp") ? number("mean_spp") : double(r.spp);
+    r.seconds = number("seconds");
+    r.rays = std::uint64_t(number("rays"));
+    r.badSamples = std::uint64_t(number("bad_samples"));
+    r.error.relativeMse = number("rel_mse");
+    r.error.rmse = number("rmse");
+    r.error.referenceRelativeMse = number("ref_rel_mse");
     rows.push_back(r);
   }
   return rows;
@@ -319,16 +366,18 @@ std::vector<Row> parseCsv(const std::string& text)
 std::vector<LadderPoint> ladder(const std::vector<Row>& rows, const std::string& scene, const std::string& chapter,
                                 RowKind kind, const std::string& precision, int threads)
 {
-  std::map<std::pair<bool, double>, LadderPoint> groups;
+  std::map<std::pair<BudgetUnit, double>, LadderPoint> groups;
   for (const Row& r : rows) {
     if (r.scene != scene || r.chapter != chapter || r.kind != kind || r.precision != precision)
       continue;
     if (threads > 0 && r.threads != threads)
       continue;
-    LadderPoint& p = groups[{r.budgetIsTime, r.budget}];
+    LadderPoint& p = groups[{r.unit, r.budget}];
     p.budget = r.budget;
-    p.budgetIsTime = r.budgetIsTime;
+    p.unit = r.unit;
     p.spp += r.spp;
+    p.meanSpp += r.meanSpp;
+    p.rays += double(r.rays);
     p.seconds += r.seconds;
     p.relativeMse += r.error.relativeMse;
     p.referenceRelativeMse += r.error.referenceRelativeMse;
@@ -339,6 +388,8 @@ std::vector<LadderPoint> ladder(const std::vector<Row>& rows, const std::string&
   for (auto& [key, p] : groups) {
     const double n = p.runs;
     p.spp /= n;
+    p.meanSpp /= n;
+    p.rays /= n;
     p.seconds /= n;
     p.relativeMse /= n;
     p.referenceRelativeMse /= n;
@@ -391,6 +442,36 @@ std::vector<SlopeResult> fitSlopes(const std::vector<Row>& rows)
   return out;
 }
 
+std::optional<EqualError> plainAtEqualError(const std::vector<LadderPoint>& ladder, double relativeMse)
+{
+  std::vector<const LadderPoint*> rungs; // those with a logarithm, in spp order
+  for (const LadderPoint& p : ladder)
+    if (p.unit == BudgetUnit::Spp && p.relativeMse > 0 && p.seconds > 0 && p.spp > 0)
+      rungs.push_back(&p);
+  if (rungs.empty() || !(relativeMse > 0))
+    return std::nullopt;
+  // Interpolate log seconds and log spp linearly in log error between the first bracketing pair.
+  for (std::size_t i = 0; i < rungs.size(); ++i) {
+    const LadderPoint& a = *rungs[i];
+    if (a.relativeMse == relativeMse)
+      return EqualError{a.seconds, a.spp, EqualError::Bound::Interpolated};
+    if (i + 1 == rungs.size())
+      break;
+    const LadderPoint& b = *rungs[i + 1];
+    if (std::min(a.relativeMse, b.relativeMse) <= relativeMse && relativeMse <= std::max(a.relativeMse, b.relativeMse)) {
+      const double t = std::log(relativeMse / a.relativeMse) / std::log(b.relativeMse / a.relativeMse);
+      auto between = [t](double x, double y) { return std::exp(std::log(x) + t * std::log(y / x)); };
+      return EqualError{between(a.seconds, b.seconds), between(a.spp, b.spp), EqualError::Bound::Interpolated};
+    }
+  }
+  // Outside the ladder's errors: its end rung bounds what the ladder would need, error falling with spp.
+  const auto [least, most] = std::minmax_element(
+      rungs.begin(), rungs.end(), [](const LadderPoint* x, const LadderPoint* y) { return x->relativeMse < y->relativeMse; });
+  if (relativeMse < (*least)->relativeMse)
+    return EqualError{(*least)->seconds, (*least)->spp, EqualError::Bound::AtLeast};
+  return EqualError{(*most)->seconds, (*most)->spp, EqualError::Bound::AtMost};
+}
+
 std::string formatNumber(double x, int digits)
 {
   char text[48];
@@ -406,15 +487,15 @@ const LadderPoint* largestTime(const std::vector<LadderPoint>& points)
 {
   const LadderPoint* best = nullptr;
   for (const LadderPoint& p : points)
-    if (p.budgetIsTime && (!best || p.budget > best->budget))
+    if (p.unit == BudgetUnit::Seconds && (!best || p.budget > best->budget))
       best = &p;
   return best;
 }
 
-const LadderPoint* atBudget(const std::vector<LadderPoint>& points, bool isTime, double budget)
+const LadderPoint* atBudget(const std::vector<LadderPoint>& points, BudgetUnit unit, double budget)
 {
   for (const LadderPoint& p : points)
-    if (p.budgetIsTime == isTime && p.budget == budget)
+    if (p.unit == unit && p.budget == budget)
       return &p;
   return nullptr;
 }
@@ -468,7 +549,8 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
       std::string slope = "—";
       for (const SlopeResult& s : slopes)
         if (s.scene == scene && s.chapter == chapter)
-          slope = formatNumber(s.fit.slope, 3) + (s.acceptable ? " (ok)" : " **FLAGGED**");
+          slope = formatNumber(s.fit.slope, 3) +
+                  (s.acceptable ? " (ok)" : s.fit.slope > kIdealSlope ? " **FLAGGED** (shallow)" : " **FLAGGED** (steep)");
       if (!p) {
         md << "| " << chapter << " | — | — | — | — | — | — | " << slope << " |\n";
         continue;
@@ -495,12 +577,54 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
       const std::vector<LadderPoint> t = ladder(rows, scene, chapter, RowKind::Time, "double");
       md << "| " << chapter << " |";
       for (double b : budgets) {
-        const LadderPoint* p = atBudget(t, true, b);
+        const LadderPoint* p = atBudget(t, BudgetUnit::Seconds, b);
         md << " " << (p ? formatNumber(p->relativeMse, 4) + " (" + formatNumber(p->spp, 4) + " spp)" : "—") << " |";
       }
       md << "\n";
     }
   }
+
+  // Adaptive sampling against the plain spp ladder at the error it reached.
+  bool anyAdaptive = false;
+  std::ostringstream ad;
+  ad << "\n## Adaptive sampling\n\nEach chapter with `--adaptive E --spp N` (a pixel stops once the relative "
+        "standard error of its mean is below E, or at N samples; \"most spp\" is what the busiest pixel took), "
+        "against its own plain spp ladder at the same "
+        "error: the ladder's seconds and spp are interpolated log–log between the two rungs whose errors bracket "
+        "the adaptive render's; beyond the ladder the end rung gives a bound (≥, ≤). Time saved is 1 − adaptive "
+        "seconds / plain seconds at equal error. Adaptive sampling is biased a little (its stopping rule depends on "
+        "the samples; docs/09_bvh.md measures how little).\n\n| scene | chapter | E | most spp | mean spp | seconds | rays "
+        "| rel. MSE | plain spp at equal error | plain seconds | time saved |\n|---|---|---|---|---|---|---|---|---|---|"
+        "---|\n";
+  for (const std::string& scene : distinct(rows, &Row::scene))
+    for (const std::string& chapter : distinct(rows, &Row::chapter)) {
+      const std::vector<LadderPoint> plain = ladder(rows, scene, chapter, RowKind::Spp, "double");
+      for (const LadderPoint& p : ladder(rows, scene, chapter, RowKind::Adaptive, "double")) {
+        anyAdaptive = true;
+        const std::optional<EqualError> e = plainAtEqualError(plain, p.relativeMse);
+        std::string sppText = "—", secondsText = "—", saved = "—";
+        if (e) {
+          const std::string mark = e->bound == EqualError::Bound::AtLeast  ? "≥ "
+                                   : e->bound == EqualError::Bound::AtMost ? "≤ "
+                                                                           : "";
+          sppText = mark + formatNumber(e->spp, 4);
+          secondsText = mark + formatNumber(e->seconds, 3);
+          const double share = 1 - p.seconds / e->seconds;
+          // A bound on the plain time bounds the saving the same way; a bound that leaves its sign open says nothing.
+          if (e->bound == EqualError::Bound::Interpolated || (e->bound == EqualError::Bound::AtLeast && share > 0) ||
+              (e->bound == EqualError::Bound::AtMost && share < 0))
+            saved = mark + formatNumber(share * 100, 3) + "%";
+          else
+            saved = "beyond the ladder";
+        }
+        ad << "| " << scene << " | " << chapter << " | " << formatNumber(p.budget, 4) << " | "
+           << formatNumber(p.spp, 5) << " | " << formatNumber(p.meanSpp, 4) << " | " << formatNumber(p.seconds, 3)
+           << " | " << formatNumber(p.rays, 3) << " | " << formatNumber(p.relativeMse, 4) << " | " << sppText << " | "
+           << secondsText << " | " << saved << " |\n";
+      }
+    }
+  if (anyAdaptive)
+    md << ad.str();
 
   md << "\n## Slopes\n\nFitted by least squares to log(mean relative MSE − the reference's own share) against "
         "log(spp) over the spp ladder; an unbiased estimator has −1, and a slope outside −1 ± "
@@ -509,8 +633,7 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
   for (const SlopeResult& s : slopes)
     md << "| " << s.scene << " | " << s.chapter << " | " << formatNumber(s.fit.slope, 4) << " | "
        << formatNumber(s.fit.r2, 4) << " | " << s.fit.points << " | " << formatNumber(s.rawFit.slope, 4) << " | "
-       << formatNumber(s.worstReferenceShare * 100, 3) << "% | " << (s.acceptable ? "within ±0.15 of −1" : "**FLAGGED**")
-       << " |\n";
+       << formatNumber(s.worstReferenceShare * 100, 3) << "% | " << slopeVerdict(s.fit.slope) << " |\n";
 
   // Thread scaling: the Threads rows against the ladder's rows at the same spp budget.
   bool anyThreads = false;
@@ -535,7 +658,7 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
         if (!first)
           continue;
         const std::vector<LadderPoint> few = ladder(rows, scene, chapter, RowKind::Threads, "double", t.threads);
-        const LadderPoint* a = atBudget(few, false, t.budget);
+        const LadderPoint* a = atBudget(few, BudgetUnit::Spp, t.budget);
         // The ladder's rows at this budget and the seeds the thread rows used.
         int manyThreads = 0;
         double manySeconds = 0;
@@ -543,7 +666,7 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
         bool same = true;
         for (const Row& m : rows)
           if (m.kind == RowKind::Spp && m.scene == scene && m.chapter == chapter && m.precision == "double" &&
-              m.budget == t.budget && !m.budgetIsTime) {
+              m.budget == t.budget && m.unit == BudgetUnit::Spp) {
             for (const Row& o : rows)
               if (o.kind == RowKind::Threads && o.scene == scene && o.chapter == chapter && o.budget == t.budget &&
                   o.threads == t.threads && o.seed == m.seed) {
@@ -579,8 +702,9 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
       const std::vector<LadderPoint> dSpp = ladder(rows, scene, chapter, RowKind::Spp, "double");
       const std::vector<LadderPoint> dTime = ladder(rows, scene, chapter, RowKind::Time, "double");
       for (const LadderPoint& p : f) {
-        const LadderPoint* d = p.budgetIsTime ? atBudget(dTime, true, p.budget) : atBudget(dSpp, false, p.budget);
-        const std::string budget = formatNumber(p.budget, 4) + (p.budgetIsTime ? " s" : " spp");
+        const bool isTime = p.unit == BudgetUnit::Seconds;
+        const LadderPoint* d = isTime ? atBudget(dTime, p.unit, p.budget) : atBudget(dSpp, p.unit, p.budget);
+        const std::string budget = formatNumber(p.budget, 4) + (isTime ? " s" : " spp");
         for (const auto& [name, q] : {std::pair{"double", d}, std::pair{"float", &p}}) {
           if (!q)
             continue;
@@ -638,8 +762,9 @@ std::string gnuplotScript(const std::vector<PlotPanel>& panels, const std::strin
       for (std::size_t s = 0; s < panel.series.size(); ++s) {
         const Series& se = panel.series[s];
         gp << (firstItem ? "" : ", \\\n     ") << "$d" << p << "_" << s << " using 1:2 with "
-           << (se.pointsOnly ? "points pt 7 ps 1.2" : "linespoints pt 7 ps 0.8 lw 2") << " lc " << (s + 1)
-           << " title \"" << escape(se.label) << "\"";
+           << (se.pointsOnly ? "points ps 1.2" : se.dashed ? "linespoints ps 1.2 lw 2 dt 4" : "linespoints ps 0.8 lw 2")
+           << " pt " << (se.pointType > 0 ? se.pointType : se.dashed ? 6 : 7)
+           << " lc " << (se.color > 0 ? se.color : int(s) + 1) << " title \"" << escape(se.label) << "\"";
         firstItem = false;
       }
       if (panel.anchor) {

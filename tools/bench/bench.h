@@ -50,6 +50,10 @@ inline constexpr double kIdealSlope = -1.0;
 inline constexpr double kSlopeTolerance = 0.15;
 /// True when `slope` lies within kSlopeTolerance of kIdealSlope.
 bool slopeAcceptable(double slope);
+/// The summary's verdict on a slope: "within ±0.15 of −1", or "**FLAGGED**" with the direction and what it points
+/// to: shallower than 1/N is an error floor, as a bias gives; steeper is what stratified pixel positions give
+/// where edges carry the error (a scene of sky and silhouettes), which no bias does.
+std::string slopeVerdict(double slope);
 
 /// FNV-1a, 64 bits (Fowler, Noll, Vo): a stable, portable hash of bytes. Continue a hash by passing the
 /// previous value as `hash`.
@@ -77,14 +81,17 @@ struct RenderStats {
   std::string chapter;      ///< The binary's name.
   int width = 0;            ///< Pixels.
   int height = 0;           ///< Pixels.
-  int spp = 0;              ///< Samples every pixel received.
+  int spp = 0;              ///< Samples every pixel received (with --adaptive: the most any pixel took).
+  double meanSpp = 0;       ///< Mean samples per pixel (equal to spp unless `adaptive`; spp when not written).
+  bool adaptive = false;    ///< Sampled adaptively (--adaptive; false when not written).
   double seconds = 0;       ///< Wall-clock time of the render loop (not process start or file writing).
   std::uint64_t rays = 0;   ///< Rays traced.
   std::uint64_t badSamples = 0; ///< Samples replaced by 0.
   int threads = 0;          ///< Threads used.
   bool interrupted = false; ///< Stopped early.
 };
-/// Parses a --stats JSON text. @throws std::runtime_error naming the missing or malformed field.
+/// Parses a --stats JSON text; `mean_spp` and `adaptive` may be missing (stats written before adaptive sampling).
+/// @throws std::runtime_error naming the missing or malformed field.
 RenderStats parseStats(const std::string& json);
 
 /// What a benchmark row measured.
@@ -93,11 +100,23 @@ enum class RowKind {
   Time,      ///< A fixed wall-clock budget (--time): equal-time comparisons.
   Threads,   ///< A fixed spp budget on a thread count other than the ladder's (thread scaling).
   Precision, ///< A fixed budget of a build of another precision (float against double).
+  Adaptive,  ///< Adaptive sampling (--adaptive) at a threshold, up to a cap of spp.
 };
-/// "spp", "time", "threads" or "precision".
+/// "spp", "time", "threads", "precision" or "adaptive".
 std::string toString(RowKind kind);
 /// The inverse of toString(RowKind). @throws std::invalid_argument.
 RowKind rowKindFromString(const std::string& text);
+
+/// What a row's budget counts.
+enum class BudgetUnit {
+  Spp,           ///< Samples per pixel (--spp).
+  Seconds,       ///< Wall-clock seconds (--time).
+  RelativeError, ///< The relative standard error at which a pixel stops (--adaptive E).
+};
+/// "spp", "s" or "E": the CSV's budget_unit.
+std::string toString(BudgetUnit unit);
+/// The inverse of toString(BudgetUnit). @throws std::invalid_argument.
+BudgetUnit budgetUnitFromString(const std::string& text);
 
 /// One render of the benchmark: one line of results.csv.
 struct Row {
@@ -109,9 +128,10 @@ struct Row {
   std::string build;      ///< Compiler, version and flags of the binary's build.
   int threads = 0;        ///< Threads used.
   std::uint64_t seed = 0; ///< --seed.
-  double budget = 0;      ///< The budget asked for: spp (kinds Spp, Threads, Precision-spp) or seconds.
-  bool budgetIsTime = false; ///< True when `budget` is seconds (--time), false when it is spp (--spp).
-  int spp = 0;            ///< Samples per pixel rendered.
+  double budget = 0;      ///< The budget asked for, in `unit`.
+  BudgetUnit unit = BudgetUnit::Spp; ///< Seconds for --time, RelativeError for kind Adaptive, else spp.
+  int spp = 0;            ///< Samples per pixel rendered (kind Adaptive: the most any pixel took).
+  double meanSpp = 0;     ///< Mean samples per pixel (equal to spp unless the kind is Adaptive).
   double seconds = 0;     ///< Render seconds.
   std::uint64_t rays = 0; ///< Rays traced.
   std::uint64_t badSamples = 0; ///< Samples replaced by 0.
@@ -126,8 +146,9 @@ std::string csvHeader();
 std::string csvLine(const Row& row);
 /// Splits one CSV line into fields (RFC 4180 quoting). @throws std::invalid_argument on an unterminated quote.
 std::vector<std::string> splitCsvLine(const std::string& line);
-/// Parses a whole CSV text written by csvHeader() and csvLine(). @throws std::invalid_argument on a line that
-/// has not the header's columns or a malformed number.
+/// Parses a whole CSV text written by csvHeader() and csvLine(), or by an earlier driver whose header lacked
+/// mean_spp (it reads as spp). @throws std::invalid_argument on another header, a line that has not the header's
+/// columns or a malformed number.
 std::vector<Row> parseCsv(const std::string& text);
 
 /// One line of a plot: a label and its (x, y) points, in drawing order.
@@ -136,13 +157,18 @@ struct Series {
   std::vector<double> x;       ///< Abscissae.
   std::vector<double> y;       ///< Ordinates.
   bool pointsOnly = false;     ///< Markers without a connecting line.
+  bool dashed = false;         ///< A dashed line with open markers (a variant of another series of its colour).
+  int color = 0;               ///< gnuplot line colour index, from 1; 0: the series' position in its panel.
+  int pointType = 0;           ///< gnuplot point type; 0: filled circles (open ones when `dashed`).
 };
 
 /// The per-chapter means over seeds of one scene's rows of one kind: the points the plots and the fit use.
 struct LadderPoint {
-  double budget = 0;       ///< The budget (spp or seconds).
-  bool budgetIsTime = false; ///< True when `budget` is seconds.
-  double spp = 0;          ///< Mean spp rendered.
+  double budget = 0;       ///< The budget, in `unit`.
+  BudgetUnit unit = BudgetUnit::Spp; ///< What `budget` counts.
+  double spp = 0;          ///< Mean spp rendered (kind Adaptive: the mean of the most any pixel took).
+  double meanSpp = 0;      ///< Mean of the rows' mean spp per pixel.
+  double rays = 0;         ///< Mean rays traced.
   double seconds = 0;      ///< Mean seconds.
   double relativeMse = 0;  ///< Mean relative MSE.
   double referenceRelativeMse = 0; ///< Mean reference share (see ErrorMetrics).
@@ -150,7 +176,7 @@ struct LadderPoint {
   int runs = 0;            ///< Seeds averaged.
 };
 /// Groups `rows` of `scene`, `chapter`, `kind` and `precision` by budget and averages them over seeds,
-/// ordered by spp budgets first, then time budgets, each ascending. Only rows on `threads` threads count
+/// ordered by unit (spp, seconds, relative error), then budget ascending. Only rows on `threads` threads count
 /// (any thread count when 0).
 std::vector<LadderPoint> ladder(const std::vector<Row>& rows, const std::string& scene, const std::string& chapter,
                                 RowKind kind, const std::string& precision, int threads = 0);
@@ -166,6 +192,24 @@ struct SlopeResult {
 };
 /// Fits the spp ladder of each (scene, chapter) in `rows` (double precision only).
 std::vector<SlopeResult> fitSlopes(const std::vector<Row>& rows);
+
+/// What the plain spp ladder needs for the error an adaptive render reached: its seconds and spp.
+struct EqualError {
+  /// How `seconds` and `spp` relate to what the ladder would need.
+  enum class Bound {
+    Interpolated, ///< Between two rungs whose errors bracket the target (log–log interpolation).
+    AtLeast,      ///< The target is below every rung's error: the ladder's most expensive rung, a lower bound.
+    AtMost,       ///< The target is above every rung's error: the ladder's cheapest rung, an upper bound.
+  };
+  double seconds = 0; ///< Seconds of the plain renders (see `bound`).
+  double spp = 0;     ///< Samples per pixel of the plain renders (see `bound`).
+  Bound bound = Bound::Interpolated; ///< Exact to interpolation, or a bound.
+};
+/// The seconds and spp at which the spp ladder `ladder` (points of kind Spp, in spp order) reaches `relativeMse`:
+/// interpolated linearly in log(relative MSE) between the first two consecutive rungs that bracket it (a noisy
+/// ladder may cross the error more than once: the cheapest crossing, so that a saving is never overstated), else
+/// the bound that the ladder's least or largest error gives. Nothing when the ladder is empty or `relativeMse` is not positive.
+std::optional<EqualError> plainAtEqualError(const std::vector<LadderPoint>& ladder, double relativeMse);
 
 /// What the reference check found, for the summary.
 struct ReferenceCheck {
@@ -195,8 +239,8 @@ struct SummaryContext {
 };
 
 /// The Markdown summary: per scene the equal-time error and efficiency of each chapter with ratios to the
-/// baseline chapter, the slopes (flagged outside ±kSlopeTolerance of −1), thread scaling, float against double,
-/// and the reference checks.
+/// baseline chapter, the slopes (flagged outside ±kSlopeTolerance of −1), adaptive sampling against the spp
+/// ladder at equal error (plainAtEqualError()), thread scaling, float against double, and the reference checks.
 std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& context);
 
 /// A gnuplot script drawing, per scene, log–log panels of `series` with the ideal 1/N slope through `anchor`

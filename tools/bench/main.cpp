@@ -37,13 +37,22 @@ namespace {
 struct Plan {
   std::string mode = "quick";
   int width = 128, height = 96;
-  std::vector<int> sppLadder = {1, 2, 4, 8, 16, 32};
+  std::vector<int> sppLadder = {1, 2, 4, 8, 16, 32, 64, 128};
   std::vector<double> timeBudgets = {0.5, 1, 2};
   int seeds = 3;
-  int referenceSpp = 2048; // 64× the ladder's top: its own noise is under 2% of any measured error
+  int referenceSpp = 4096; // 32× the ladder's top: its own noise is about 3% of any measured error
   int checkSpp = 512;
   int threadsSpp = 16;   // the spp budget of the 1-thread runs and the float build's spp runs
   int threads = 0;       // the ladder's thread count; 0: every core
+  // Adaptive sampling: --adaptive E at each threshold, at most adaptiveMaxSpp samples a pixel (0: the spp ladder's
+  // top, so that no adaptive render spends more than the ladder's largest budget and the plain ladder brackets it
+  // unless it does better than that budget).
+  std::vector<double> adaptiveThresholds = {0.2, 0.1, 0.05};
+  int adaptiveMaxSpp = 0;
+  int adaptiveCap() const
+  {
+    return adaptiveMaxSpp > 0 ? adaptiveMaxSpp : *std::max_element(sppLadder.begin(), sppLadder.end());
+  }
 };
 
 Plan fullPlan()
@@ -58,6 +67,7 @@ Plan fullPlan()
   p.referenceSpp = 8192;
   p.checkSpp = 2048;
   p.threadsSpp = 64;
+  p.adaptiveThresholds = {0.1, 0.05, 0.03, 0.02};
   return p;
 }
 
@@ -70,7 +80,10 @@ constexpr double kVarianceFloor = 1e-12;
 constexpr std::uint64_t kReferenceSeed = 1000003, kCheckSeed = 2000003;
 
 const std::vector<std::string> kDefaultChapters = {"step06_path_tracer", "step07_light_sampling", "step08_mis"};
-const std::vector<std::string> kDefaultScenes = {"cornell.json", "mis.json"};
+// adaptive.json: a plain sky behind three spheres, where adaptive sampling has the most to save. Not mis.json: its
+// reference cannot pass the check (chapter 6's per-pixel variance there is all fireflies; docs/benchmarks.md), and
+// an untrusted reference stops the run; name it with --scenes to see.
+const std::vector<std::string> kDefaultScenes = {"cornell.json", "adaptive.json"};
 
 struct Options {
   Plan plan;
@@ -106,8 +119,8 @@ std::vector<std::string> splitList(const std::string& s)
   --no-float            skip the float build
   --chapters A,B,...    chapter programs, lowest first (default: those of step06_path_tracer,
                         step07_light_sampling, step08_mis that exist); the last one renders the reference
-  --scenes A,B,...      scene files, as paths or names under scenes/ (default: cornell.json, and mis.json
-                        when it exists)
+  --scenes A,B,...      scene files, as paths or names under scenes/ (default: those of cornell.json and
+                        adaptive.json that exist)
   --out DIR             results (default: <bin>/../bench/<mode>)
   --references DIR      reference cache (default: <bin>/../bench/references)
   --size WxH            image size
@@ -118,6 +131,10 @@ std::vector<std::string> splitList(const std::string& s)
   --check-spp N         spp of the second estimator's render that checks it
   --threads-spp N       spp budget of the 1-thread and float runs
   --threads N           the ladder's thread count (default: every core)
+  --adaptive A,B,...    adaptive sampling's thresholds (--adaptive E of the chapters; quick 0.2,0.1,0.05,
+                        full 0.1,0.05,0.03,0.02), each against the spp ladder at equal error
+  --adaptive-max-spp N  the most samples a pixel takes in the adaptive runs (default: the spp ladder's top)
+  --no-adaptive         no adaptive runs
   --no-plots            write the CSV and the summary only (no gnuplot)
   --references-only     render (or find in the cache) and check each scene's reference, then stop
   --replot FILE.csv     draw the plots and write the summary of an earlier results.csv again (into --out,
@@ -159,6 +176,8 @@ Options parseOptions(int argc, char** argv)
       o.plots = false;
     else if (a == "--references-only")
       o.referencesOnly = true;
+    else if (a == "--no-adaptive")
+      later.emplace_back(a, "");
     else if (a == "--no-float") {
       o.floatGiven = true;
       o.floatBinDir.clear();
@@ -167,7 +186,7 @@ Options parseOptions(int argc, char** argv)
     else if (a == "--bin" || a == "--float-bin" || a == "--chapters" || a == "--scenes" || a == "--out" ||
              a == "--references" || a == "--size" || a == "--spp" || a == "--times" || a == "--seeds" ||
              a == "--reference-spp" || a == "--check-spp" || a == "--threads-spp" || a == "--threads" ||
-             a == "--replot")
+             a == "--replot" || a == "--adaptive" || a == "--adaptive-max-spp")
       later.emplace_back(a, value());
     else
       usage("unknown option '" + a + "'");
@@ -212,6 +231,20 @@ Options parseOptions(int argc, char** argv)
       o.plan.threads = intList(v)[0];
     else if (a == "--replot")
       o.replot = v;
+    else if (a == "--adaptive") {
+      o.plan.adaptiveThresholds.clear();
+      for (const std::string& t : splitList(v)) {
+        const double e = std::atof(t.c_str());
+        if (!(e > 0))
+          usage("'" + t + "' is not a positive threshold");
+        o.plan.adaptiveThresholds.push_back(e);
+      }
+      if (o.plan.adaptiveThresholds.empty())
+        usage("--adaptive needs a threshold (or --no-adaptive)");
+    } else if (a == "--adaptive-max-spp")
+      o.plan.adaptiveMaxSpp = intList(v)[0];
+    else if (a == "--no-adaptive")
+      o.plan.adaptiveThresholds.clear();
   }
   return o;
 }
@@ -447,7 +480,10 @@ void writePlots(const std::vector<Row>& rows, const std::vector<std::string>& sc
     PlotPanel bySpp{scene, {}, std::nullopt}, byTime{scene, {}, std::nullopt};
     for (const std::string& chapter : chapters) {
       const std::vector<LadderPoint> spp = ladder(rows, scene, chapter, RowKind::Spp, "double");
-      Series s{chapter, {}, {}, false}, t{chapter, {}, {}, false};
+      // One colour per chapter: its plain ladder a line, its equal-time renders dots, its float build squares, its
+      // adaptive renders a dashed line with open circles.
+      const int color = int(&chapter - chapters.data()) + 1;
+      Series s{chapter, {}, {}, false, false, color}, t{chapter, {}, {}, false, false, color};
       for (const LadderPoint& p : spp) {
         s.x.push_back(p.spp);
         s.y.push_back(p.relativeMse);
@@ -462,20 +498,36 @@ void writePlots(const std::vector<Row>& rows, const std::vector<std::string>& sc
         bySpp.series.push_back(s);
         byTime.series.push_back(t);
       }
-      Series eq{shortName(chapter) + " equal time", {}, {}, true};
+      Series eq{shortName(chapter) + " equal time", {}, {}, true, false, color};
       for (const LadderPoint& p : ladder(rows, scene, chapter, RowKind::Time, "double")) {
         eq.x.push_back(p.seconds);
         eq.y.push_back(p.relativeMse);
       }
       if (!eq.x.empty())
         byTime.series.push_back(eq);
-      Series fl{shortName(chapter) + " float build", {}, {}, true};
+      Series fl{shortName(chapter) + " float build", {}, {}, true, false, color, 5};
       for (const LadderPoint& p : ladder(rows, scene, chapter, RowKind::Precision, "float")) {
         fl.x.push_back(p.seconds);
         fl.y.push_back(p.relativeMse);
       }
       if (!fl.x.empty())
         byTime.series.push_back(fl);
+      // Adaptive sampling: error against seconds, and against the mean spp, threshold by threshold.
+      std::vector<LadderPoint> adaptive = ladder(rows, scene, chapter, RowKind::Adaptive, "double");
+      std::sort(adaptive.begin(), adaptive.end(),
+                [](const LadderPoint& a, const LadderPoint& b) { return a.budget > b.budget; });
+      Series at{shortName(chapter) + " adaptive", {}, {}, false, true, color};
+      Series as = at;
+      for (const LadderPoint& p : adaptive) {
+        at.x.push_back(p.seconds);
+        at.y.push_back(p.relativeMse);
+        as.x.push_back(p.meanSpp);
+        as.y.push_back(p.relativeMse);
+      }
+      if (!at.x.empty()) {
+        byTime.series.push_back(at);
+        bySpp.series.push_back(as);
+      }
     }
     sppPanels.push_back(bySpp);
     timePanels.push_back(byTime);
@@ -608,7 +660,13 @@ int main(int argc, char** argv)
         " s; " + std::to_string(plan.seeds) + " seeds each; " + std::to_string(threads) +
         " threads (thread scaling: 1 against " + std::to_string(threads) + " at " + std::to_string(plan.threadsSpp) +
         " spp); reference " + std::to_string(plan.referenceSpp) + " spp, check " + std::to_string(plan.checkSpp) +
-        " spp";
+        " spp; adaptive " +
+        [&] {
+          std::string s;
+          for (double e : plan.adaptiveThresholds)
+            s.append(s.empty() ? "thresholds " : ",").append(formatNumber(e, 3));
+          return s.empty() ? std::string("not run") : s + " up to " + std::to_string(plan.adaptiveCap()) + " spp";
+        }();
     const char* waitPolicy = std::getenv("OMP_WAIT_POLICY");
     conditions += std::string("; OMP_WAIT_POLICY ") + (waitPolicy ? waitPolicy : "unset");
     SummaryContext context;
@@ -651,13 +709,15 @@ int main(int argc, char** argv)
         continue;
 
       auto measure = [&](const fs::path& binDir, const BuildInfo& build, const std::string& chapter, RowKind kind,
-                         bool isTime, double budget, int threadCount, std::uint64_t seed) {
-        std::vector<std::string> args = {isTime ? "--time" : "--spp",
-                                         isTime ? formatNumber(budget, 6) : std::to_string(int(budget)),
-                                         "--seed",
-                                         std::to_string(seed),
-                                         "--threads",
-                                         std::to_string(threadCount)};
+                         BudgetUnit unit, double budget, int threadCount, std::uint64_t seed) {
+        std::vector<std::string> args = {"--seed", std::to_string(seed), "--threads", std::to_string(threadCount)};
+        if (unit == BudgetUnit::Seconds)
+          args.insert(args.end(), {"--time", formatNumber(budget, 6)});
+        else if (unit == BudgetUnit::Spp)
+          args.insert(args.end(), {"--spp", std::to_string(int(budget))});
+        else
+          args.insert(args.end(),
+                      {"--adaptive", formatNumber(budget, 6), "--spp", std::to_string(plan.adaptiveCap())});
         const RunResult r =
             runChapter(binDir / chapter, scene, plan, args, o.outDir / "runs" / "run", false, log);
         Row row;
@@ -670,18 +730,19 @@ int main(int argc, char** argv)
         row.threads = r.stats.threads;
         row.seed = seed;
         row.budget = budget;
-        row.budgetIsTime = isTime;
+        row.unit = unit;
         row.spp = r.stats.spp;
+        row.meanSpp = r.stats.meanSpp;
         row.seconds = r.stats.seconds;
         row.rays = r.stats.rays;
         row.badSamples = r.stats.badSamples;
         row.error = measureError(r.image, ref.image, ref.variance);
         rows.push_back(row);
         csv << csvLine(row) << "\n" << std::flush;
-        std::printf("[%d] %s %s %s %s=%s seed %llu, %d thr: %d spp, %.3f s, rel. MSE %.4g\n", ++runIndex,
-                    sceneName.c_str(), chapter.c_str(), toString(kind).c_str(), isTime ? "time" : "spp",
-                    formatNumber(budget, 4).c_str(), static_cast<unsigned long long>(seed), row.threads, row.spp,
-                    row.seconds, row.error.relativeMse);
+        std::printf("[%d] %s %s %s %s=%s seed %llu, %d thr: %s spp, %.3f s, rel. MSE %.4g\n", ++runIndex,
+                    sceneName.c_str(), chapter.c_str(), toString(kind).c_str(), toString(unit).c_str(),
+                    formatNumber(budget, 4).c_str(), static_cast<unsigned long long>(seed), row.threads,
+                    formatNumber(row.meanSpp, 4).c_str(), row.seconds, row.error.relativeMse);
         std::fflush(stdout);
       };
 
@@ -705,23 +766,27 @@ int main(int argc, char** argv)
         const auto seed = std::uint64_t(s);
         for (int spp : plan.sppLadder)
           for (const std::string& chapter : chapters)
-            measure(o.binDir, main, chapter, RowKind::Spp, false, spp, threads, seed);
+            measure(o.binDir, main, chapter, RowKind::Spp, BudgetUnit::Spp, spp, threads, seed);
         for (const std::string& chapter : chapters) {
           if (threads > 1) {
             // The ladder must hold the same budget for the comparison; add it when the ladder lacks it.
             if (!threadsSppOnLadder)
-              measure(o.binDir, main, chapter, RowKind::Spp, false, plan.threadsSpp, threads, seed);
-            measure(o.binDir, main, chapter, RowKind::Threads, false, plan.threadsSpp, 1, seed);
+              measure(o.binDir, main, chapter, RowKind::Spp, BudgetUnit::Spp, plan.threadsSpp, threads, seed);
+            measure(o.binDir, main, chapter, RowKind::Threads, BudgetUnit::Spp, plan.threadsSpp, 1, seed);
           }
           if (hasFloat(chapter))
-            measure(o.floatBinDir, *floatBuild, chapter, RowKind::Precision, false, plan.threadsSpp, threads, seed);
+            measure(o.floatBinDir, *floatBuild, chapter, RowKind::Precision, BudgetUnit::Spp, plan.threadsSpp, threads,
+                    seed);
         }
         for (double t : plan.timeBudgets)
           for (const std::string& chapter : chapters) {
-            measure(o.binDir, main, chapter, RowKind::Time, true, t, threads, seed);
+            measure(o.binDir, main, chapter, RowKind::Time, BudgetUnit::Seconds, t, threads, seed);
             if (hasFloat(chapter))
-              measure(o.floatBinDir, *floatBuild, chapter, RowKind::Precision, true, t, threads, seed);
+              measure(o.floatBinDir, *floatBuild, chapter, RowKind::Precision, BudgetUnit::Seconds, t, threads, seed);
           }
+        for (double e : plan.adaptiveThresholds)
+          for (const std::string& chapter : chapters)
+            measure(o.binDir, main, chapter, RowKind::Adaptive, BudgetUnit::RelativeError, e, threads, seed);
       }
     }
     if (o.referencesOnly) {
@@ -752,7 +817,10 @@ int main(int argc, char** argv)
     for (const SlopeResult& s : fitSlopes(rows))
       if (!s.acceptable)
         std::cout << "raylife_bench: FLAGGED: " << s.scene << " " << s.chapter << " has slope "
-                  << formatNumber(s.fit.slope, 4) << ", outside −1 ± " << kSlopeTolerance << "\n";
+                  << formatNumber(s.fit.slope, 4) << ", outside −1 ± " << kSlopeTolerance
+                  << (s.fit.slope > kIdealSlope ? " (shallower: an error floor, as a bias gives)"
+                                                : " (steeper: as stratified pixel positions give on edges)")
+                  << "\n";
     for (const std::string& n : context.notes)
       if (n.rfind("Plots not drawn", 0) == 0 || n.rfind("gnuplot failed", 0) == 0)
         return 3;
