@@ -458,15 +458,16 @@ std::optional<EqualError> plainAtEqualError(const std::vector<LadderPoint>& ladd
     if (i + 1 == rungs.size())
       break;
     const LadderPoint& b = *rungs[i + 1];
-    if (std::min(a.relativeMse, b.relativeMse) <= relativeMse && relativeMse <= std::max(a.relativeMse, b.relativeMse)) {
+    const auto [low, high] = std::minmax(a.relativeMse, b.relativeMse);
+    if (low <= relativeMse && relativeMse <= high) {
       const double t = std::log(relativeMse / a.relativeMse) / std::log(b.relativeMse / a.relativeMse);
       auto between = [t](double x, double y) { return std::exp(std::log(x) + t * std::log(y / x)); };
       return EqualError{between(a.seconds, b.seconds), between(a.spp, b.spp), EqualError::Bound::Interpolated};
     }
   }
   // Outside the ladder's errors: its end rung bounds what the ladder would need, error falling with spp.
-  const auto [least, most] = std::minmax_element(
-      rungs.begin(), rungs.end(), [](const LadderPoint* x, const LadderPoint* y) { return x->relativeMse < y->relativeMse; });
+  auto lessError = [](const LadderPoint* x, const LadderPoint* y) { return x->relativeMse < y->relativeMse; };
+  const auto [least, most] = std::minmax_element(rungs.begin(), rungs.end(), lessError);
   if (relativeMse < (*least)->relativeMse)
     return EqualError{(*least)->seconds, (*least)->spp, EqualError::Bound::AtLeast};
   return EqualError{(*most)->seconds, (*most)->spp, EqualError::Bound::AtMost};
@@ -549,8 +550,9 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
       std::string slope = "—";
       for (const SlopeResult& s : slopes)
         if (s.scene == scene && s.chapter == chapter)
-          slope = formatNumber(s.fit.slope, 3) +
-                  (s.acceptable ? " (ok)" : s.fit.slope > kIdealSlope ? " **FLAGGED** (shallow)" : " **FLAGGED** (steep)");
+          slope = formatNumber(s.fit.slope, 3) + (s.acceptable                 ? " (ok)"
+                                                  : s.fit.slope > kIdealSlope ? " **FLAGGED** (shallow)"
+                                                                              : " **FLAGGED** (steep)");
       if (!p) {
         md << "| " << chapter << " | — | — | — | — | — | — | " << slope << " |\n";
         continue;
@@ -589,13 +591,12 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
   std::ostringstream ad;
   ad << "\n## Adaptive sampling\n\nEach chapter with `--adaptive E --spp N` (a pixel stops once the relative "
         "standard error of its mean is below E, or at N samples; \"most spp\" is what the busiest pixel took), "
-        "against its own plain spp ladder at the same "
-        "error: the ladder's seconds and spp are interpolated log–log between the two rungs whose errors bracket "
-        "the adaptive render's; beyond the ladder the end rung gives a bound (≥, ≤). Time saved is 1 − adaptive "
-        "seconds / plain seconds at equal error. Adaptive sampling is biased a little (its stopping rule depends on "
-        "the samples; docs/09_bvh.md measures how little).\n\n| scene | chapter | E | most spp | mean spp | seconds | rays "
-        "| rel. MSE | plain spp at equal error | plain seconds | time saved |\n|---|---|---|---|---|---|---|---|---|---|"
-        "---|\n";
+        "against its own plain spp ladder at the same error: the ladder's seconds and spp are interpolated log–log "
+        "between the two rungs whose errors bracket the adaptive render's; beyond the ladder the end rung gives a "
+        "bound (≥, ≤). Time saved is 1 − adaptive seconds / plain seconds at equal error. Adaptive sampling is "
+        "biased a little (its stopping rule depends on the samples; docs/09_bvh.md measures how little).\n\n"
+        "| scene | chapter | E | most spp | mean spp | seconds | rays | rel. MSE | plain spp at equal error | "
+        "plain seconds | time saved |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const std::string& scene : distinct(rows, &Row::scene))
     for (const std::string& chapter : distinct(rows, &Row::chapter)) {
       const std::vector<LadderPoint> plain = ladder(rows, scene, chapter, RowKind::Spp, "double");

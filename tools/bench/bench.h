@@ -208,7 +208,8 @@ struct EqualError {
 /// The seconds and spp at which the spp ladder `ladder` (points of kind Spp, in spp order) reaches `relativeMse`:
 /// interpolated linearly in log(relative MSE) between the first two consecutive rungs that bracket it (a noisy
 /// ladder may cross the error more than once: the cheapest crossing, so that a saving is never overstated), else
-/// the bound that the ladder's least or largest error gives. Nothing when the ladder is empty or `relativeMse` is not positive.
+/// the bound that the ladder's least or largest error gives. Nothing when the ladder is empty or `relativeMse` is
+/// not positive.
 std::optional<EqualError> plainAtEqualError(const std::vector<LadderPoint>& ladder, double relativeMse);
 
 /// What the reference check found, for the summary.
