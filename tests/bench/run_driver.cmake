@@ -41,8 +41,8 @@ list(LENGTH lines count)
 if(NOT count EQUAL 41)
   message(FATAL_ERROR "results.csv has ${count} lines, not 1 + 40")
 endif()
-# The adaptive rows: threshold unit E, capped at the ladder's top (32 spp), and the scene's background lets pixels stop
-# early, so the mean spp is below the most any pixel took (sample counts are deterministic, not timings).
+# The adaptive rows: threshold unit E, capped at the ladder's top (32 spp), and the scene's background lets pixels
+# stop early, so the mean spp is below the most any pixel took (sample counts are deterministic, not timings).
 set(adaptive 0)
 foreach(line IN LISTS lines)
   if(line MATCHES ",adaptive,")

@@ -198,8 +198,8 @@ struct EqualError {
   /// How `seconds` and `spp` relate to what the ladder would need.
   enum class Bound {
     Interpolated, ///< Between two rungs whose errors bracket the target (log–log interpolation).
-    AtLeast,      ///< The target is below every rung's error: the ladder's most expensive rung, a lower bound.
-    AtMost,       ///< The target is above every rung's error: the ladder's cheapest rung, an upper bound.
+    AtLeast, ///< The target is below every rung's error: the rung of least error (most spp, normally), a lower bound.
+    AtMost,  ///< The target is above every rung's error: the rung of largest error (fewest spp), an upper bound.
   };
   double seconds = 0; ///< Seconds of the plain renders (see `bound`).
   double spp = 0;     ///< Samples per pixel of the plain renders (see `bound`).
@@ -207,7 +207,7 @@ struct EqualError {
 };
 /// The seconds and spp at which the spp ladder `ladder` (points of kind Spp, in spp order) reaches `relativeMse`:
 /// interpolated linearly in log(relative MSE) between the first two consecutive rungs that bracket it (a noisy
-/// ladder may cross the error more than once: the cheapest crossing, so that a saving is never overstated), else
+/// ladder may cross the error more than once: the cheapest crossing, so that a saving is not overstated), else
 /// the bound that the ladder's least or largest error gives. Nothing when the ladder is empty or `relativeMse` is
 /// not positive.
 std::optional<EqualError> plainAtEqualError(const std::vector<LadderPoint>& ladder, double relativeMse);
