@@ -157,6 +157,19 @@ std::vector<int> intList(const std::string& s)
   return out;
 }
 
+// A comma-separated list of positive numbers (seconds, thresholds); `what` names one in the message.
+std::vector<double> positiveList(const std::string& s, const std::string& what)
+{
+  std::vector<double> out;
+  for (const std::string& item : splitList(s)) {
+    const double v = std::atof(item.c_str());
+    if (!(v > 0))
+      usage("'" + item + "' is not a positive " + what);
+    out.push_back(v);
+  }
+  return out;
+}
+
 Options parseOptions(int argc, char** argv)
 {
   Options o;
@@ -211,15 +224,9 @@ Options parseOptions(int argc, char** argv)
         usage("--size wants WxH, e.g. 128x96");
     } else if (a == "--spp")
       o.plan.sppLadder = intList(v);
-    else if (a == "--times") {
-      o.plan.timeBudgets.clear();
-      for (const std::string& t : splitList(v)) {
-        const double s = std::atof(t.c_str());
-        if (!(s > 0))
-          usage("'" + t + "' is not a positive number of seconds");
-        o.plan.timeBudgets.push_back(s);
-      }
-    } else if (a == "--seeds")
+    else if (a == "--times")
+      o.plan.timeBudgets = positiveList(v, "number of seconds");
+    else if (a == "--seeds")
       o.plan.seeds = intList(v)[0];
     else if (a == "--reference-spp")
       o.plan.referenceSpp = intList(v)[0];
@@ -232,13 +239,7 @@ Options parseOptions(int argc, char** argv)
     else if (a == "--replot")
       o.replot = v;
     else if (a == "--adaptive") {
-      o.plan.adaptiveThresholds.clear();
-      for (const std::string& t : splitList(v)) {
-        const double e = std::atof(t.c_str());
-        if (!(e > 0))
-          usage("'" + t + "' is not a positive threshold");
-        o.plan.adaptiveThresholds.push_back(e);
-      }
+      o.plan.adaptiveThresholds = positiveList(v, "threshold");
       if (o.plan.adaptiveThresholds.empty())
         usage("--adaptive needs a threshold (or --no-adaptive)");
     } else if (a == "--adaptive-max-spp")
