@@ -2,9 +2,9 @@
 //
 // Every ray starts at the eye. The camera builds the lecture's orthonormal basis from eye, focal point and up
 // (w = (eye − focal)/|eye − focal|, u = (up × w)/|up × w|, v = w × u) and sends the ray through pixel (x, y)
-// along d = u·x + v·y − w·z (common/camera.cpp, Camera::ray). This chapter traces nothing yet: it paints each
+// along d = u·x + v·y − w·z (common/scene/camera.cpp, Camera::ray). This chapter traces nothing yet: it paints each
 // pixel with its ray's direction so you can see the basis at work.
-#include "render_loop.h"
+#include "render/runner.h"
 
 using namespace raylife;
 

@@ -1,10 +1,10 @@
 // Chapter 2 — intersect the ray with the spheres.
 //
 // A ray p = o + t·d meets a sphere (p − c)² = r² where (o + t·d − c)² − r² = 0, a quadratic in t
-// (common/sphere.h solves it in a numerically careful form). The nearest hit with t in the ray's interval wins
+// (common/geometry/sphere.h solves it in a numerically careful form). The nearest hit with t in the ray's interval wins
 // (Scene::intersect), and its unit normal is n = (p − c)/r. This chapter paints each pixel with the normal of
 // what its ray hits first.
-#include "render_loop.h"
+#include "render/runner.h"
 
 using namespace raylife;
 

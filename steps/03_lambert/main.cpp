@@ -2,11 +2,11 @@
 //
 // A diffuse (Lambertian) surface looks equally bright from every direction; how bright depends on how squarely
 // the light falls on it. The lecture writes this as I_D = (L·N) C I_L: the cosine between the direction to the
-// light L and the normal N, times the surface colour C, times the light arriving, I_L (common/shading.h,
+// light L and the normal N, times the surface colour C, times the light arriving, I_L (common/shading/shading.h,
 // lambert). Add every light's share, and an ambient term for the light that comes from everywhere else.
 // Here every light is taken to reach every point: shadows come in chapter 4.
-#include "render_loop.h"
-#include "shading.h"
+#include "render/runner.h"
+#include "shading/shading.h"
 
 using namespace raylife;
 

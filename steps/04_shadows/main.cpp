@@ -2,11 +2,11 @@
 //
 // A light counts only if nothing stands between it and the point: trace a shadow ray from the hit point towards
 // the light and ask whether anything blocks it (Scene::occluded). The ray must not hit the very surface it
-// leaves ("shadow acne"): instead of a fixed epsilon, spawnRayTo (common/hit.h) moves its origin off the surface
+// leaves ("shadow acne"): instead of a fixed epsilon, spawnRayTo (common/geometry/hit.h) moves its origin off the surface
 // by a bound on the hit point's floating-point error, which works at every scale. The ambient term keeps the
 // shadows from going pitch black.
-#include "render_loop.h"
-#include "shading.h"
+#include "render/runner.h"
+#include "shading/shading.h"
 
 using namespace raylife;
 

@@ -5,13 +5,13 @@
 // is the colour of the point. So trace calls itself. The split at glass follows physics: Snell's law bends
 // the refracted ray (η_i sinθ_i = η_t sinθ_t), the Fresnel equations say how much light each ray carries
 // (F is reflected, 1 − F transmitted), and past the critical angle inside the glass nothing is transmitted
-// at all (total internal reflection). Those building blocks live in common/bsdf.h, because the path tracer of
+// at all (total internal reflection). Those building blocks live in common/shading/bsdf.h, because the path tracer of
 // chapter 6 uses them again. Diffuse surfaces keep chapter 4's local shading, except that a shadow ray now
 // passes through glass, dimmed by Fresnel; glossy surfaces are shaded as diffuse here. A ray that has bounced --max-depth times returns
 // black. Each pixel averages --spp rays at stratified jittered positions inside it: anti-aliasing.
-#include "bsdf.h"
-#include "render_loop.h"
-#include "shading.h"
+#include "shading/bsdf.h"
+#include "render/runner.h"
+#include "shading/shading.h"
 
 using namespace raylife;
 

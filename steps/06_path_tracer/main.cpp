@@ -9,15 +9,15 @@
 // direction ωi with probability density p(ωi), trace a ray there, and weight what it brings back by
 // f_r·cosθi / p. Repeating that at each hit builds a path from the eye, and the path's throughput β is the
 // product of those weights. The BSDFs, their samplers and pdfs (Lambertian, mirror, glass, normalised Phong)
-// are in common/bsdf.h; each is sampled in proportion to (nearly) f·cosθ, so the weight stays near the albedo.
+// are in common/shading/bsdf.h; each is sampled in proportion to (nearly) f·cosθ, so the weight stays near the albedo.
 // Light enters the estimate only where a path hits an emitter (an emissive sphere: an area light, so shadows
 // are soft) or leaves the scene (the background is an environment that emits). Point lights are not used:
 // a path can never hit a point. Russian roulette ends long paths at random without bias, so the default
 // --max-depth is unlimited.
-#include "bsdf.h"
-#include "frame.h"
-#include "render_loop.h"
-#include "sampling.h"
+#include "shading/bsdf.h"
+#include "core/frame.h"
+#include "render/runner.h"
+#include "core/sampling.h"
 
 using namespace raylife;
 

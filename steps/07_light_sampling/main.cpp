@@ -7,7 +7,7 @@
 //   direct:   pick a point on a light, trace a shadow ray to it, and if nothing blocks it add
 //             f_r(x, ωi → ωo) Le cosθi / p(ωi)   (p the density with which the light sampler chose ωi);
 //   indirect: go on with the BSDF-sampled direction, as in chapter 6.
-// The light sampler (common/light_sampling.h) chooses one light with probability ∝ its power, then a direction
+// The light sampler (common/scene/light_sampling.h) chooses one light with probability ∝ its power, then a direction
 // uniform in the cone the emissive sphere subtends: every such direction sees the light, so an unblocked shadow
 // ray always brings back Le, and p is just 1/(solid angle of the light) times the choice probability. A point
 // light is a delta light: its one direction, with the inverse-square law, I/r².
@@ -15,12 +15,12 @@
 // already counted at the previous vertex, so emission is added only where light sampling could not have found it:
 // on the camera ray, and after a specular bounce (a mirror or glass has no non-zero f for a sampled direction).
 // The background is not sampled as a light, so it is still counted by whatever ray escapes.
-#include "bsdf.h"
-#include "frame.h"
-#include "light_sampling.h"
-#include "render_loop.h"
-#include "sampling.h"
-#include "scene_plan.h"
+#include "shading/bsdf.h"
+#include "core/frame.h"
+#include "scene/light_sampling.h"
+#include "render/runner.h"
+#include "core/sampling.h"
+#include "scene/scene_plan.h"
 
 using namespace raylife;
 

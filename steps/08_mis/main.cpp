@@ -16,12 +16,12 @@
 // p_bsdf of a light-sampled direction is the BSDF's own pdf (bsdfPdf). Point lights and the specular BSDFs (mirror,
 // glass) are deltas that only one strategy can find, so their samples keep weight 1, as does the background (which
 // only BSDF sampling finds, as in chapter 7).
-#include "bsdf.h"
-#include "frame.h"
-#include "light_sampling.h"
-#include "render_loop.h"
-#include "sampling.h"
-#include "scene_plan.h"
+#include "shading/bsdf.h"
+#include "core/frame.h"
+#include "scene/light_sampling.h"
+#include "render/runner.h"
+#include "core/sampling.h"
+#include "scene/scene_plan.h"
 
 #include <cstring>
 #include <iostream>

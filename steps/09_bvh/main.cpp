@@ -1,7 +1,7 @@
 // Chapter 9 — acceleration structures: a bounding volume hierarchy.
 //
 // Until now every ray was tested against every sphere: N tests per ray, fine for five spheres and hopeless for
-// half a million. A bounding volume hierarchy (common/bvh.h) puts the spheres in boxes, the boxes in bigger
+// half a million. A bounding volume hierarchy (common/geometry/bvh.h) puts the spheres in boxes, the boxes in bigger
 // boxes, up to one box around the scene; a ray that misses a box skips all it holds. The tree is built with the
 // surface area heuristic, which prices each way of splitting a node's spheres in two by the chance that a ray
 // hitting the node hits each half (the ratio of their surface areas) and takes the cheapest; the nodes are
@@ -13,10 +13,10 @@
 //
 // This chapter's picture is the work itself: on the left the scene as chapter 4 shades it, on the right each
 // pixel's work, the boxes and spheres its camera ray and shadow rays tested, on a logarithmic colour scale
-// (common/heat_map.h): black is one test, pale yellow four thousand.
-#include "heat_map.h"
-#include "render_loop.h"
-#include "shading.h"
+// (common/render/heat_map.h): black is one test, pale yellow four thousand.
+#include "render/heat_map.h"
+#include "render/runner.h"
+#include "shading/shading.h"
 
 using namespace raylife;
 

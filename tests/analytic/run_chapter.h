@@ -2,8 +2,8 @@
 // so the analytic and golden tests check the chapters exactly as students run them.
 #pragma once
 
-#include "film.h"
-#include "image_io.h"
+#include "render/film.h"
+#include "render/image_io.h"
 
 #include <cstdlib>
 #include <filesystem>

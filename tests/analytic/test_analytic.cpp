@@ -8,8 +8,8 @@
 // edge's exact coverage) are left out and counted.
 #include "run_chapter.h"
 
-#include "image_compare.h"
-#include "scene.h"
+#include "render/image_compare.h"
+#include "scene/scene.h"
 
 #include <catch2/catch.hpp>
 

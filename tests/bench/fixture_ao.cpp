@@ -5,9 +5,9 @@
 //   FIXTURE_COSINE   cosine-weighted directions, estimate C · V          (unbiased)
 //   FIXTURE_UNIFORM  uniform directions, estimate C · 2 cos θ · V        (unbiased, noisier)
 //   FIXTURE_BIASED   as FIXTURE_COSINE, times 1.2                        (biased: the reference check must fail)
-#include "hit.h"
-#include "render_loop.h"
-#include "shading.h"
+#include "geometry/hit.h"
+#include "render/runner.h"
+#include "shading/shading.h"
 
 using namespace raylife;
 

@@ -1,6 +1,6 @@
 // The benchmark's own logic (tools/bench/bench.h): metric, slope fit, cache key, stats, CSV, summary, plots.
 #include "bench.h"
-#include "image_compare.h"
+#include "render/image_compare.h"
 
 #include <catch2/catch.hpp>
 

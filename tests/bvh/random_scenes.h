@@ -2,9 +2,9 @@
 // tests of the BVH and of the sphere lanes (tests/bvh).
 #pragma once
 
-#include "ray.h"
-#include "rng.h"
-#include "sphere.h"
+#include "geometry/ray.h"
+#include "core/rng.h"
+#include "geometry/sphere.h"
 
 #include <cmath>
 #include <limits>

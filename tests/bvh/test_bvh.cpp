@@ -1,10 +1,10 @@
 // The BVH against the brute-force loop: the same hit (sphere and t, bit for bit) on over a million random rays
 // over random scenes, the any-hit query in agreement, a deterministic build, and the SAH beating a midpoint split.
-#include "bvh.h"
-#include "heat_map.h"
+#include "geometry/bvh.h"
+#include "render/heat_map.h"
 #include "random_scenes.h"
-#include "scene.h"
-#include "simd.h"
+#include "scene/scene.h"
+#include "core/simd.h"
 
 #include <catch2/catch.hpp>
 

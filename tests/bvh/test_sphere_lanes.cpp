@@ -1,9 +1,9 @@
-// The sphere lanes (common/sphere_lanes.h) against the brute-force loop: four spheres at once and one by one give
+// The sphere lanes (common/geometry/sphere_lanes.h) against the brute-force loop: four spheres at once and one by one give
 // the same sphere and the same t, bit for bit, on every kind of ray over every kind of scene, ties included; and
 // the scene uses them for its flat list with hit records identical to the loop's.
 #include "random_scenes.h"
-#include "scene.h"
-#include "sphere_lanes.h"
+#include "scene/scene.h"
+#include "geometry/sphere_lanes.h"
 
 #include <catch2/catch.hpp>
 

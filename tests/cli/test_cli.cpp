@@ -3,7 +3,7 @@
 // command line, 1 for bad input or a failed write, 130 when interrupted), and no file written or half written.
 #include "process.h"
 
-#include "image_io.h"
+#include "render/image_io.h"
 
 #include <catch2/catch.hpp>
 

@@ -1,6 +1,6 @@
 #include "scene_check.h"
 
-#include "scene.h"
+#include "scene/scene.h"
 
 #include <cmath>
 

@@ -1,13 +1,13 @@
-// Light sampling (common/light_sampling.h): the cone sampler of a spherical light against its pdf (chi-square), the
+// Light sampling (common/scene/light_sampling.h): the cone sampler of a spherical light against its pdf (chi-square), the
 // sampled directions all hitting the light, 1 − cosθmax without cancellation in float and double, the inside of a
 // light, the choice of a light by power, and the MIS heuristics' weights summing to one.
 // Fixed seeds, so each run draws the same numbers; the significance of each chi-square test is 1%.
 #include "../statistics/chi_square.h"
 
-#include "bsdf.h"
-#include "frame.h"
-#include "light_sampling.h"
-#include "scene.h"
+#include "shading/bsdf.h"
+#include "core/frame.h"
+#include "scene/light_sampling.h"
+#include "scene/scene.h"
 
 #include <catch2/catch.hpp>
 

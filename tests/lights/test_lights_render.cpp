@@ -9,8 +9,8 @@
 // 4 standard errors (|z| ≤ 4, two-sided significance 6·10⁻⁵). A control shows the test catches a 5% bias.
 #include "../analytic/run_chapter.h"
 
-#include "image_compare.h"
-#include "scene.h"
+#include "render/image_compare.h"
+#include "scene/scene.h"
 
 #include <catch2/catch.hpp>
 

@@ -3,7 +3,7 @@
 /// stability tests exercise the chapters themselves, not copies of their trace functions.
 #pragma once
 
-#include "image_io.h"
+#include "render/image_io.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,14 +1,14 @@
 // stability_images: renders the pictures of docs/robustness.md, each failure beside its cure, in float (where the
-// failures are large enough to see) with the scalar-templated routines of common/sphere.h.
+// failures are large enough to see) with the scalar-templated routines of common/geometry/sphere.h.
 //
 //   stability_images OUTPUT_DIR
 //
 // writes acne_no_offset.png, acne_fixed_tmin.png, acne_cured.png (scenes/spheres.json, chapter 4's shading) and
 // far_sphere_naive.png, far_sphere_robust.png (scenes/stress/far_small_sphere.json, chapter 2's normals).
 // Not a test: the stability tests assert the same failures and cures by counting them.
-#include "image_io.h"
-#include "render_loop.h"
-#include "scene.h"
+#include "render/image_io.h"
+#include "render/runner.h"
+#include "scene/scene.h"
 #include "support.h"
 
 #include <cstdio>

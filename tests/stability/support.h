@@ -6,9 +6,9 @@
 /// writes, kept so that every test can show them failing beside the robust code of common/ passing.
 #pragma once
 
-#include "math.h"
-#include "rng.h"
-#include "sphere.h"
+#include "core/math.h"
+#include "core/rng.h"
+#include "geometry/sphere.h"
 
 #include <algorithm>
 #include <cmath>

@@ -6,9 +6,9 @@
 // turns that into an error naming /camera/up.
 // Pass criterion: either a clear error, or a basis that is orthonormal within kOrthonormalTolerance; never a
 // NaN. The naive formula is shown giving NaN (parallel) and, in float, a basis that is not orthonormal (1e-7).
-#include "camera.h"
-#include "render_loop.h"
-#include "scene.h"
+#include "scene/camera.h"
+#include "render/runner.h"
+#include "scene/scene.h"
 #include "support.h"
 
 #include <catch2/catch.hpp>

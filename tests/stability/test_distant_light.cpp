@@ -1,7 +1,7 @@
 // Case 8 — sampling a distant spherical light.
 //
 // Setup: a light of radius 1 at distances 1e2, 1e3, 1e4 and 1e5 from the shaded point, 100,000 directions each
-// from sampleSphereCone (common/light_sampling.h), in float and in double. Pass criterion: at least 99.99% of the
+// from sampleSphereCone (common/scene/light_sampling.h), in float and in double. Pass criterion: at least 99.99% of the
 // sampled directions hit the sphere (intersectSphere from the same point), and the cone's pdf is within 1e-3 of a
 // long-double reference. With the shaded point inside the light (at its centre, halfway out, just inside its
 // surface) the directions are finite and unit and the pdf finite and positive: no NaN.
@@ -14,8 +14,8 @@
 // half an ulp of 1, the difference is 0 and the pdf 1/(2π·0) is infinite: the light would count for nothing.
 // (In double the same happens only past about 10⁸ radii, so at these distances the naive form passes in double,
 // and the test says so.)
-#include "light_sampling.h"
-#include "sphere.h"
+#include "scene/light_sampling.h"
+#include "geometry/sphere.h"
 #include "support.h"
 
 #include <catch2/catch.hpp>

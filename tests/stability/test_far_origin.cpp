@@ -11,8 +11,8 @@
 // disagree from 1e4 on (k·u ≈ 6e-4: silhouettes and shadow edges move, 0.8 % of the pixels at 1e4, a sixth
 // and more from 1e5); the figures are printed so that docs/robustness.md can quote them.
 #include "run_chapter.h"
-#include "image_compare.h"
-#include "render_loop.h"
+#include "render/image_compare.h"
+#include "render/runner.h"
 #include "support.h"
 
 #include <catch2/catch.hpp>

@@ -7,9 +7,9 @@
 // direction taken as glm::normalize(light − p), on light_on_surface.json, where a point light sits exactly on
 // the point the centre pixel sees: 0/0 gives NaN, which the render loop counts (PointLight::arrivalAt, which
 // chapters 3 and 4 use, returns nothing there instead).
-#include "render_loop.h"
+#include "render/runner.h"
 #include "run_chapter.h"
-#include "shading.h"
+#include "shading/shading.h"
 #include "support.h"
 
 #include <catch2/catch.hpp>

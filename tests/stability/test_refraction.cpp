@@ -11,7 +11,7 @@
 // Naive, for contrast: the textbook formula without the TIR test (√ of a negative number: NaN; and at η = 1 its
 // 1 − (1 − cos²θ) bends grazing rays), and Schlick's approximation evaluated with the incident cosine (it never
 // reaches 1 under TIR when light leaves glass).
-#include "bsdf.h"
+#include "shading/bsdf.h"
 #include "support.h"
 
 #include <catch2/catch.hpp>

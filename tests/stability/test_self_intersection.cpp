@@ -14,7 +14,7 @@
 // error bound) and offsetRayOrigin with t_min = 0.
 // Pass criterion: zero self-hits outward and zero wrong inward hits, in float and in double, wherever the
 // sphere is representable (see kResolvableUlps).
-#include "scene.h"
+#include "scene/scene.h"
 #include "support.h"
 
 #include <catch2/catch.hpp>

@@ -6,7 +6,7 @@
 // B's near side and returns the far one, at 1000: light would leak through the contact. Robust: the origin is
 // pushed off A by the hit point's error bound (offsetRayOrigin, spawnRay in hit.h) and t_min = 0.
 // Pass criterion: the nearest hit is B's near side (t < 500, not its far side at ≈ 1000), for every ray.
-#include "scene.h"
+#include "scene/scene.h"
 #include "support.h"
 
 #include <catch2/catch.hpp>

@@ -7,8 +7,8 @@
 // chi-square quantile for the remaining degrees of freedom at the stated significance (Wilson–Hilferty).
 #pragma once
 
-#include "math.h"
-#include "rng.h"
+#include "core/math.h"
+#include "core/rng.h"
 
 #include <algorithm>
 #include <cmath>

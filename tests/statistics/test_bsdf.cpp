@@ -1,10 +1,10 @@
 // Every sampler against its pdf (chi-square), and every BSDF for energy conservation and reciprocity.
 // Fixed seeds, so each run draws the same numbers; the significance of each chi-square test is 1%.
-#include "bsdf.h"
+#include "shading/bsdf.h"
 #include "chi_square.h"
-#include "frame.h"
-#include "rng.h"
-#include "sampling.h"
+#include "core/frame.h"
+#include "core/rng.h"
+#include "core/sampling.h"
 
 #include <catch2/catch.hpp>
 

@@ -2,7 +2,7 @@
 /// @brief The one-sphere, 37×23 test scene the render-loop tests share.
 #pragma once
 
-#include "scene.h"
+#include "scene/scene.h"
 
 namespace raylife::test {
 

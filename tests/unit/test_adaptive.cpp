@@ -1,7 +1,7 @@
 // Adaptive sampling in render(): reproducible on any thread count, stops constant pixels at the minimum count,
 // and keeps the image mean close to its expectation.
-#include "render_loop.h"
-#include "rng.h"
+#include "render/render_loop.h"
+#include "core/rng.h"
 #include "small_scene.h"
 
 #include <catch2/catch.hpp>

@@ -1,5 +1,5 @@
-#include "camera.h"
-#include "rng.h"
+#include "scene/camera.h"
+#include "core/rng.h"
 
 #include <catch2/catch.hpp>
 

@@ -1,6 +1,6 @@
-#include "film.h"
-#include "image_compare.h"
-#include "image_io.h"
+#include "render/film.h"
+#include "render/image_compare.h"
+#include "render/image_io.h"
 
 #include <catch2/catch.hpp>
 

@@ -3,7 +3,7 @@
 // ±0, subnormals, the smallest normals, huge values, ±∞ and NaN, offsets of both signs and of zero, and points
 // the offset takes exactly to ±0. A NaN result only has to be NaN on both sides: C++ does not fix which NaN an
 // operation with NaN operands returns, so the compiler's choice of operand order may change its sign or payload.
-#include "sphere.h"
+#include "geometry/sphere.h"
 
 #include <catch2/catch.hpp>
 

@@ -1,6 +1,6 @@
 // PixelSequence (rng.h): Sobol's first two dimensions, Owen-scrambled per pixel. Each aligned block of 2^k points
 // is a (0, k, 2)-net, and a point's position is uniform over pixels (the scramble is what makes it random).
-#include "rng.h"
+#include "core/rng.h"
 
 #include <catch2/catch.hpp>
 

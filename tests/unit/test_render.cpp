@@ -1,5 +1,5 @@
-#include "render_loop.h"
-#include "rng.h"
+#include "render/render_loop.h"
+#include "core/rng.h"
 #include "small_scene.h"
 
 #include <catch2/catch.hpp>

@@ -1,6 +1,6 @@
-#include "options.h"
-#include "render_loop.h"
-#include "scene.h"
+#include "render/options.h"
+#include "render/runner.h"
+#include "scene/scene.h"
 
 #include <catch2/catch.hpp>
 

@@ -1,7 +1,7 @@
 // The render's plan (scene_plan.h): what each scene lets a chapter skip.
-#include "light_sampling.h"
-#include "render_loop.h"
-#include "scene_plan.h"
+#include "scene/light_sampling.h"
+#include "render/runner.h"
+#include "scene/scene_plan.h"
 
 #include <catch2/catch.hpp>
 

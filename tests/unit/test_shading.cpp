@@ -1,5 +1,5 @@
-#include "scene.h"
-#include "shading.h"
+#include "scene/scene.h"
+#include "shading/shading.h"
 
 #include <catch2/catch.hpp>
 

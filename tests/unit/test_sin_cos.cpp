@@ -1,7 +1,7 @@
 // sinCos2Pi (math.h) against long double sin and cos: its error in ulps over a million u, sin² + cos² = 1, the
 // exact values at the quarter turns, and a control showing that the error measure catches a polynomial one term
 // short. Float and double in every build, whatever Real is.
-#include "math.h"
+#include "core/math.h"
 
 #include <catch2/catch.hpp>
 

@@ -1,6 +1,6 @@
-#include "scene.h"
-#include "rng.h"
-#include "sphere.h"
+#include "scene/scene.h"
+#include "core/rng.h"
+#include "geometry/sphere.h"
 
 #include <bit>
 #include <cstdint>

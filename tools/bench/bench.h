@@ -5,7 +5,7 @@
 /// Everything here is a pure function of its inputs, so tests/bench checks it without rendering anything.
 #pragma once
 
-#include "film.h"
+#include "render/film.h"
 
 #include <cstdint>
 #include <map>

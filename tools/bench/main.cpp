@@ -5,8 +5,8 @@
 // thread and on all, in the double build and (when built) the float build, and writes results.csv, the plots
 // (gnuplot: SVG and PNG) and summary.md into <build>/bench/<mode>/. Not a test: timings are never asserted.
 #include "bench.h"
-#include "image_compare.h"
-#include "image_io.h"
+#include "render/image_compare.h"
+#include "render/image_io.h"
 
 #include <nlohmann/json.hpp>
 

@@ -14,11 +14,11 @@
 //
 // The default scene is scenes/random_spheres.json. Times are the thread's CPU time (best of R runs), which a shared
 // machine disturbs less than wall-clock time; still, compare ratios measured in one run.
-#include "heat_map.h"
-#include "image_io.h"
-#include "render_loop.h"
-#include "scene.h"
-#include "shading.h"
+#include "render/heat_map.h"
+#include "render/image_io.h"
+#include "render/runner.h"
+#include "scene/scene.h"
+#include "shading/shading.h"
 
 #include <algorithm>
 #include <ctime>

@@ -1,8 +1,8 @@
 // raylife_compare: compares an image with a reference, for teachers and for the golden tests (same code:
-// common/image_compare.h). Prints the metrics, optionally writes a difference image, and exits 0 when the
+// common/render/image_compare.h). Prints the metrics, optionally writes a difference image, and exits 0 when the
 // image is within tolerance, 1 when it is not, 2 on bad usage or unreadable files.
-#include "image_compare.h"
-#include "image_io.h"
+#include "render/image_compare.h"
+#include "render/image_io.h"
 
 #include <cstdio>
 #include <cstdlib>

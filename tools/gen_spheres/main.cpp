@@ -5,7 +5,7 @@
 // usage: gen_spheres N SEED > scene.json      (N ≥ 1 spheres in all, the ground included)
 //
 // scenes/random_spheres.json is `gen_spheres 500 1`; the scaling runs of chapter 9 use N = 10 … 100,000.
-#include "rng.h"
+#include "core/rng.h"
 
 #include <cmath>
 #include <cstdio>

@@ -12,11 +12,11 @@
 // that each make one classic mistake.
 #include "../../analytic/run_chapter.h"
 
-#include "bsdf.h"
-#include "frame.h"
-#include "image_compare.h"
-#include "render_loop.h"
-#include "sampling.h"
+#include "shading/bsdf.h"
+#include "core/frame.h"
+#include "render/image_compare.h"
+#include "render/runner.h"
+#include "core/sampling.h"
 
 #include <catch2/catch.hpp>
 

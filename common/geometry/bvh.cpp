@@ -1,0 +1,631 @@
+#include "geometry/bvh.h"
+#include "core/simd.h"
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <type_traits>
+
+#if RAYLIFE_HAS_AVX2
+#include <immintrin.h> // _mm_movemask_ps (SSE, which every x86-64 has) and _mm256_movemask_ps (AVX)
+#elif defined(__SSE__)
+#include <xmmintrin.h> // _mm_movemask_ps
+#endif
+
+namespace raylife {
+
+namespace {
+
+// ---- Bounds ---------------------------------------------------------------------------------------------------
+
+// A sphere's box, widened by kBoxMargin relative to the size of its coordinates (see math.h for why).
+Bounds3 sphereBounds(const Sphere& s)
+{
+  const Real margin = kBoxMargin<Real> * (maxComponent(glm::abs(s.center)) + s.radius);
+  const Vec3 extent(s.radius + margin);
+  return Bounds3{s.center - extent, s.center + extent};
+}
+
+// The float at or below x (and at or above, for roundUp): a float box rounded outwards holds the exact box.
+float roundDown(Real x)
+{
+  constexpr Real kFloatMax = Real(std::numeric_limits<float>::max());
+  if (x > kFloatMax)
+    return std::numeric_limits<float>::max();
+  if (x < -kFloatMax)
+    return -std::numeric_limits<float>::infinity();
+  float f = float(x);
+  if (Real(f) > x)
+    f = std::nextafter(f, -std::numeric_limits<float>::infinity());
+  return f;
+}
+
+float roundUp(Real x) { return -roundDown(-x); }
+
+// ---- Building -------------------------------------------------------------------------------------------------
+
+// A sphere while the tree is built: its box, the centre of that box (what the splits sort by), its index.
+struct BuildItem {
+  Bounds3 bounds;
+  Vec3 centroid;
+  int index;
+};
+
+// Where to split a node's items [begin, end): items [begin, mid) go to the first child, [mid, end) to the second.
+struct Split {
+  std::size_t mid;
+};
+
+constexpr float kInfinityF = std::numeric_limits<float>::infinity();
+
+// A built node's surface area, in scene units².
+Real nodeArea(const BvhNode& n) { return Bounds3{Vec3(n.bounds[0]), Vec3(n.bounds[1])}.surfaceArea(); }
+
+int ceilLog2(std::size_t n) { return n <= 1 ? 0 : int(std::bit_width(n - 1)); }
+
+int longestAxis(const Bounds3& b)
+{
+  const Vec3 d = b.hi - b.lo;
+  return d.x >= d.y && d.x >= d.z ? 0 : (d.y >= d.z ? 1 : 2);
+}
+
+class Builder {
+public:
+  Builder(std::vector<BuildItem> items, const BvhBuildOptions& options) : items_(std::move(items)), options_(options)
+  {
+    options_.bins = std::clamp(options_.bins, 2, kMaxBins);
+    options_.maxLeafSize = std::clamp(options_.maxLeafSize, 1, 255);
+  }
+
+  std::vector<BvhNode> nodes;
+  int depth = 0;
+
+  // Builds the subtree over items [begin, end) at `level` (root 1), appending its nodes depth first.
+  void build(std::size_t begin, std::size_t end, int level)
+  {
+    const std::size_t nodeIndex = nodes.size();
+    nodes.push_back(BvhNode{});
+    depth = std::max(depth, level);
+
+    // Bound the node's spheres, and their centroids (the splits choose among centroids).
+    Bounds3 bounds, centroids;
+    for (std::size_t i = begin; i < end; ++i) {
+      bounds = bounds.merged(items_[i].bounds);
+      centroids = centroids.merged(items_[i].centroid);
+    }
+    for (int a = 0; a < 3; ++a) {
+      nodes[nodeIndex].bounds[0][a] = roundDown(bounds.lo[a]);
+      nodes[nodeIndex].bounds[1][a] = roundUp(bounds.hi[a]);
+    }
+
+    const std::optional<Split> split = chooseSplit(begin, end, bounds, centroids, level);
+    if (!split) {
+      // A leaf: its spheres are items [begin, end), which is where they stay in the final order.
+      nodes[nodeIndex].offset = std::uint32_t(begin);
+      nodes[nodeIndex].count = std::uint16_t(end - begin);
+      return;
+    }
+    // An interior node: the first child follows it, the second comes after the first's whole subtree.
+    build(begin, split->mid, level + 1);
+    const std::size_t second = nodes.size();
+    build(split->mid, end, level + 1);
+    nodes[nodeIndex].offset = std::uint32_t(second);
+    nodes[nodeIndex].count = 0;
+  }
+
+  const std::vector<BuildItem>& items() const { return items_; }
+
+private:
+  static constexpr int kMaxBins = 64;
+
+  std::optional<Split> chooseSplit(std::size_t begin, std::size_t end, const Bounds3& bounds,
+                                   const Bounds3& centroids, int level)
+  {
+    const std::size_t n = end - begin;
+    if (n == 1)
+      return std::nullopt;
+    // Near the depth limit, halve by count: that reaches single spheres in ceil(log2 n) more levels.
+    if (level + ceilLog2(n) + 1 >= Bvh::kMaxDepth)
+      return equalCounts(begin, end, longestAxis(centroids));
+    if (options_.split == BvhSplit::Midpoint)
+      return midpoint(begin, end, centroids);
+    return sah(begin, end, bounds, centroids);
+  }
+
+  // Halves the items by count along `axis` (centroid order, then index, so the result is fully determined).
+  Split equalCounts(std::size_t begin, std::size_t end, int axis)
+  {
+    const std::size_t mid = begin + (end - begin) / 2;
+    std::nth_element(items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(mid),
+                     items_.begin() + std::ptrdiff_t(end), [axis](const BuildItem& a, const BuildItem& b) {
+                       return a.centroid[axis] < b.centroid[axis] ||
+                              (a.centroid[axis] == b.centroid[axis] && a.index < b.index);
+                     });
+    return Split{mid};
+  }
+
+  // The bad split, for comparison: the middle of the centroids' longest axis, whatever it costs.
+  std::optional<Split> midpoint(std::size_t begin, std::size_t end, const Bounds3& centroids)
+  {
+    if (end - begin <= std::size_t(options_.maxLeafSize))
+      return std::nullopt;
+    const int axis = longestAxis(centroids);
+    const Real middle = (centroids.lo[axis] + centroids.hi[axis]) / 2;
+    const auto midIt = std::partition(items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(end),
+                                      [&](const BuildItem& item) { return item.centroid[axis] < middle; });
+    const std::size_t mid = std::size_t(midIt - items_.begin());
+    if (mid == begin || mid == end) // every centroid on one side (all equal): split by count instead
+      return equalCounts(begin, end, axis);
+    return Split{mid};
+  }
+
+  /// [sah]
+  // The surface area heuristic. A ray that hits a node's box hits a child's box with probability about
+  // A_child / A_node (for rays from all directions), so splitting into L and R costs, per ray,
+  //   C = C_trav + (A_L / A)·N_L·C_isect + (A_R / A)·N_R·C_isect,
+  // against N·C_isect for keeping the node a leaf. The centroids are sorted into a few bins per axis, and every
+  // boundary between bins is priced; the cheapest wins.
+  std::optional<Split> sah(std::size_t begin, std::size_t end, const Bounds3& bounds, const Bounds3& centroids)
+  {
+    const std::size_t n = end - begin;
+    const BvhCosts costs;
+    const int bins = options_.bins;
+    const Real area = bounds.surfaceArea();
+    const Real leafCost = Real(n) * costs.intersection;
+
+    Real bestCost = kInfinity;
+    int bestAxis = -1, bestBin = -1;
+    if (area > 0 && area < kInfinity) {
+      for (int axis = 0; axis < 3; ++axis) {
+        const Real lo = centroids.lo[axis], extent = centroids.hi[axis] - lo;
+        if (!(extent > 0 && extent < kInfinity))
+          continue; // every centroid in one plane across this axis: nothing to split
+        // Sort the centroids into bins: each bin's count and the box of its spheres.
+        std::array<std::size_t, kMaxBins> count{};
+        std::array<Bounds3, kMaxBins> box{};
+        for (std::size_t i = begin; i < end; ++i) {
+          const int b = binOf(items_[i].centroid[axis], lo, extent);
+          count[std::size_t(b)] += 1;
+          box[std::size_t(b)] = box[std::size_t(b)].merged(items_[i].bounds);
+        }
+        // Sweep from the right to know, for each boundary, the area and count of everything to its right.
+        std::array<Real, kMaxBins> rightArea{};
+        std::array<std::size_t, kMaxBins> rightCount{};
+        Bounds3 right;
+        std::size_t nRight = 0;
+        for (int b = bins - 1; b > 0; --b) {
+          right = right.merged(box[std::size_t(b)]);
+          nRight += count[std::size_t(b)];
+          rightArea[std::size_t(b)] = right.surfaceArea();
+          rightCount[std::size_t(b)] = nRight;
+        }
+        // Sweep from the left and price each boundary (left: bins 0..b, right: bins b+1..).
+        Bounds3 left;
+        std::size_t nLeft = 0;
+        for (int b = 0; b + 1 < bins; ++b) {
+          left = left.merged(box[std::size_t(b)]);
+          nLeft += count[std::size_t(b)];
+          const std::size_t nR = rightCount[std::size_t(b + 1)];
+          if (nLeft == 0 || nR == 0)
+            continue;
+          const Real cost = costs.traversal + (left.surfaceArea() * Real(nLeft) +
+                                               rightArea[std::size_t(b + 1)] * Real(nR)) / area * costs.intersection;
+          if (cost < bestCost) {
+            bestCost = cost;
+            bestAxis = axis;
+            bestBin = b;
+          }
+        }
+      }
+    }
+
+    // Keep a leaf when no split pays for itself (and the leaf is small enough).
+    if (n <= std::size_t(options_.maxLeafSize) && !(bestCost < leafCost))
+      return std::nullopt;
+    if (bestAxis < 0) // no boundary separates any centroids: split by count
+      return equalCounts(begin, end, longestAxis(centroids));
+    const Real lo = centroids.lo[bestAxis], extent = centroids.hi[bestAxis] - lo;
+    const auto midIt = std::partition(
+        items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(end),
+        [&](const BuildItem& item) { return binOf(item.centroid[bestAxis], lo, extent) <= bestBin; });
+    return Split{std::size_t(midIt - items_.begin())};
+  }
+  /// [sah]
+
+  int binOf(Real c, Real lo, Real extent) const
+  {
+    const int b = int(Real(options_.bins) * ((c - lo) / extent));
+    return std::clamp(b, 0, options_.bins - 1);
+  }
+
+  std::vector<BuildItem> items_;
+  BvhBuildOptions options_;
+};
+
+// ---- Lanes: four or eight boxes at a time ---------------------------------------------------------------------
+
+// Four or eight floats, and as many lanes' yes (all bits set) or no: GCC's vector extensions, which clang builds
+// too, so that the box test reads as arithmetic on one float. Four are one SSE register, the x86-64 baseline
+// (elsewhere, whatever the target has); eight are one AVX register, used where the CPU has AVX2 (simd.h), so a
+// node's eight boxes are tested by one instruction per step instead of two.
+typedef float Float4 __attribute__((vector_size(16)));
+typedef std::int32_t Mask4 __attribute__((vector_size(16)));
+typedef float Float8 __attribute__((vector_size(32)));
+typedef std::int32_t Mask8 __attribute__((vector_size(32)));
+static_assert(BvhWideNode::kWidth % 8 == 0 && BvhWideNode::kWidth < 32, "a node's boxes: whole eights, one bit each");
+
+// Lane k's answer as bit k. (By reference, as simd.h asks of eight lanes.)
+unsigned bitMask(const Mask4& m)
+{
+#if defined(__SSE__)
+  return unsigned(_mm_movemask_ps(__m128(m)));
+#else
+  return unsigned((m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8));
+#endif
+}
+#if RAYLIFE_HAS_AVX2
+RAYLIFE_AVX2 unsigned bitMask(const Mask8& m) { return unsigned(_mm256_movemask_ps(__m256(m))); }
+#endif
+
+// ---- The box test ---------------------------------------------------------------------------------------------
+
+// Floats on either side of x, for the per-ray constants: up to an ulp and a half looser than roundDown and
+// roundUp, and without their branches. x is moved by more than the conversion to nearest can move it back (half
+// an ulp: at most |x|·2^-24 for a normal float, 2^-150 for a subnormal), with room for the double arithmetic's
+// own rounding; past the largest float, that float or ±∞, whichever is on the safe side.
+float floatBelow(Real x)
+{
+  if constexpr (std::is_same_v<Real, float>)
+    return float(x); // already a float
+  constexpr Real kFloatMax = Real(std::numeric_limits<float>::max());
+  return float(std::min(x - std::abs(x) * Real(0x1p-23) - Real(0x1p-149), kFloatMax));
+}
+float floatAbove(Real x)
+{
+  if constexpr (std::is_same_v<Real, float>)
+    return float(x);
+  constexpr Real kFloatMax = Real(std::numeric_limits<float>::max());
+  return float(std::max(x + std::abs(x) * Real(0x1p-23) + Real(0x1p-149), -kFloatMax));
+}
+
+// A ray prepared for box tests, once per query: per axis, the row of BvhWideNode::bounds holding the face the
+// ray meets first (lo for a positive direction, hi for a negative one) and the row holding the other, then the
+// origin and 1/d as entries and as exits use them, in float, one copy per lane of V (Float4 or Float8).
+template <class V> struct BoxRay {
+  std::size_t nearRow[3], farRow[3]; // offsets into BvhWideNode::bounds
+  V originNear[3], originFar[3];
+  V invNear[3], invFar[3];
+  V tmin, tmax; // the interval, rounded outwards; tmax shrinks to the nearest hit found so far
+};
+// Every lane of v set to x. (x − 0 is x for every float, −0 included; the scalar is broadcast to the lanes. Written
+// without a function that returns a V, as simd.h asks.)
+template <class V> void fill(V& v, float x) { v = x - V{}; }
+
+/// [slab]
+// The slab test, for four or eight boxes at once. A box is where the ray is inside all three slabs lo ≤ p ≤ hi:
+// for t between the largest entry and the smallest exit. A direction with a zero component works out: 1/d = ±∞ gives
+// entry −∞ and exit +∞ for an origin inside the slab, entry +∞ (a miss) outside; an origin exactly on a face
+// gives 0·∞ = NaN, which min and max ignore (the box is kept, which is safe).
+//
+// It runs in float, on the float boxes, and it never culls a box the double ray touches: its interval holds the
+// exact one widened by kBoxMargin (which covers the sphere test's error at a box's face). For that, everything
+// is rounded to the safe side, so that an entry can only come out early and an exit late:
+//  - the origin towards the face: lo − o cannot grow when o is rounded up (for d > 0; the other way for d < 0);
+//  - 1/d scaled by 1 − w for entries and 1 + w for exits, w = kBoxMargin + γ(8) in float. An entry
+//    E = (lo − o)/d > 0 is rounded six times on its way (in double: 1/d, the scale 1 − w, their product; then
+//    the conversion to float, the subtraction and the product of hitsBoxes), each time by a factor at most
+//    (1 + u), and (1 + u)^6 ≤ 1 + γ(6); so it comes out at most (1 − kBoxMargin − γ(8))(1 + γ(6))·E, which is
+//    below (1 − kBoxMargin)·E. An exit likewise, the other way.
+//  - An entry at or below 0 does not matter: tmin ≥ 0 (Ray's contract), and the rounding keeps its sign.
+//    tmin itself is rounded down, and the nearest hit so far up.
+// (Gradual underflow, below 2^-126, is outside this bound, as it is outside pbrt's: no distance in a scene
+// comes near it.) So the test is wider than the exact one by some 5·10^-7 of the distance: now and then a box
+// more, never a different hit.
+template <class V> BoxRay<V> prepareBoxRay(const Ray& ray)
+{
+  constexpr Real kWiden = kBoxMargin<Real> + Real(gamma<float>(8));
+  constexpr Real kFloatMax = Real(std::numeric_limits<float>::max());
+  constexpr std::size_t kRow = BvhWideNode::kWidth;
+  BoxRay<V> r;
+  for (int a = 0; a < 3; ++a) {
+    const Real inv = Real(1) / ray.direction[a];
+    const bool negative = std::signbit(inv); // (d = −0 included: 1/d = −∞)
+    r.nearRow[a] = (3 * std::size_t(negative) + std::size_t(a)) * kRow;
+    r.farRow[a] = (3 * std::size_t(!negative) + std::size_t(a)) * kRow;
+    // A positive direction meets lo first: its entry (lo − o)/d is early when o is rounded up, its exit
+    // (hi − o)/d late when o is rounded down. A negative direction the other way round.
+    const float below = floatBelow(ray.origin[a]), above = floatAbove(ray.origin[a]);
+    fill(r.originNear[a], negative ? below : above);
+    fill(r.originFar[a], negative ? above : below);
+    // |1/d| made smaller for entries, larger for exits. The entries' stays finite: a float ∞ for a d too small
+    // for float would put entries too late (and d = ±0 then gives the largest float, whose entries are early
+    // enough). The exits' may overflow to ±∞, which is on the safe side.
+    fill(r.invNear[a], float(std::clamp(inv * (1 - kWiden), -kFloatMax, kFloatMax)));
+    fill(r.invFar[a], float(inv * (1 + kWiden)));
+  }
+  fill(r.tmin, floatBelow(ray.tmin));
+  fill(r.tmax, floatAbove(ray.tmax));
+  return r;
+}
+
+// The children's boxes of `node` against the ray within [tmin, tmax], one box to a lane of V (two steps of four
+// or one of eight): bit k of the result is set when child k's box is hit, and tEnter[k] is where the ray enters it.
+template <class V>
+unsigned hitsBoxes(const BvhWideNode& node, const BoxRay<V>& r, float (&tEnter)[BvhWideNode::kWidth])
+{
+  constexpr int kLanes = int(sizeof(V) / sizeof(float));
+  unsigned hits = 0;
+  for (int k = 0; k < BvhWideNode::kWidth; k += kLanes) {
+    // Where the ray enters and leaves each slab, then the largest entry and the smallest exit (a NaN lane
+    // leaves its slab unbounded: its comparison is false).
+    V enter = r.tmin, exit = r.tmax;
+    for (int a = 0; a < 3; ++a) {
+      V faceNear, faceFar;
+      std::memcpy(&faceNear, node.bounds + r.nearRow[a] + k, sizeof faceNear);
+      std::memcpy(&faceFar, node.bounds + r.farRow[a] + k, sizeof faceFar);
+      const V tNear = (faceNear - r.originNear[a]) * r.invNear[a];
+      const V tFar = (faceFar - r.originFar[a]) * r.invFar[a];
+      enter = tNear > enter ? tNear : enter;
+      exit = tFar < exit ? tFar : exit;
+    }
+    std::memcpy(&tEnter[k], &enter, sizeof enter);
+    hits |= bitMask(enter <= exit) << k;
+  }
+  return hits;
+}
+/// [slab]
+
+} // namespace
+
+Bvh::Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options)
+{
+  if (spheres.empty())
+    return;
+  std::vector<BuildItem> items(spheres.size());
+  for (std::size_t i = 0; i < spheres.size(); ++i) {
+    const Bounds3 b = sphereBounds(spheres[i]);
+    items[i] = BuildItem{b, (b.lo + b.hi) / Real(2), int(i)};
+  }
+  eightAtOnce_ = options.eightAtOnce && cpuHasAvx2();
+  Builder builder(std::move(items), options);
+  builder.nodes.reserve(2 * spheres.size());
+  builder.build(0, spheres.size(), 1);
+  nodes_ = std::move(builder.nodes);
+  nodes_.shrink_to_fit();
+  depth_ = builder.depth;
+
+  // The spheres in leaf order, so that a leaf's spheres lie side by side in memory.
+  primitives_.reserve(spheres.size());
+  for (const BuildItem& item : builder.items()) {
+    const Sphere& s = spheres[std::size_t(item.index)];
+    primitives_.push_back(Primitive{s.center, s.radius, item.index, false});
+  }
+
+  // The tree the queries walk: up to eight children to a node.
+  // No reserve: the count is not known before the collapse (about a sixth of the built nodes), and a generous guess
+  // would be the largest block at the loader's memory peak.
+  collapse(0);
+  wideNodes_.shrink_to_fit();
+}
+
+/// [collapse]
+// Why collapse: a ray visits the nodes of a path one after the other, each visit waiting for the box test before
+// it knows where to go next, so fewer, wider nodes are faster, as long as their boxes are tested together.
+//
+// A wide node takes the place of a binary node and of up to three levels below it. It starts from the node's two
+// children and, while it has fewer than kWidth, opens the interior child with the largest box (the one a ray is
+// likeliest to enter, by the SAH's argument) into that child's two children. Returns the new node's index; its
+// interior children follow it.
+std::uint32_t Bvh::collapse(std::uint32_t node)
+{
+  constexpr int kWidth = BvhWideNode::kWidth;
+  std::uint32_t children[kWidth];
+  int n = 0;
+  if (nodes_[node].count > 0) {
+    children[n++] = node; // the whole tree is one leaf: a root with one child
+  } else {
+    children[n++] = node + 1;
+    children[n++] = nodes_[node].offset;
+    while (n < kWidth) {
+      int widest = -1;
+      Real widestArea = -1;
+      for (int k = 0; k < n; ++k)
+        if (nodes_[children[k]].count == 0 && nodeArea(nodes_[children[k]]) > widestArea) {
+          widest = k;
+          widestArea = nodeArea(nodes_[children[k]]);
+        }
+      if (widest < 0)
+        break; // every child a leaf
+      const std::uint32_t opened = children[widest];
+      children[widest] = opened + 1;
+      children[n++] = nodes_[opened].offset;
+    }
+  }
+
+  // Take the node's place before its children take theirs; fill it in once they have (the vector may move).
+  const auto index = std::uint32_t(wideNodes_.size());
+  wideNodes_.emplace_back();
+  BvhWideNode wide{};
+  wide.boxes = std::uint32_t(n);
+  for (int k = 0; k < kWidth; ++k)
+    for (int a = 0; a < 3; ++a) {
+      // The child's box, or an empty one in a slot without a child.
+      wide.bounds[a * kWidth + k] = k < n ? nodes_[children[k]].bounds[0][a] : kInfinityF;
+      wide.bounds[(3 + a) * kWidth + k] = k < n ? nodes_[children[k]].bounds[1][a] : -kInfinityF;
+    }
+  for (int k = 0; k < n; ++k) {
+    const BvhNode& child = nodes_[children[k]];
+    if (child.count > 0) {
+      wide.child[k] = BvhWideNode::kLeaf | child.offset;
+      primitives_[child.offset + child.count - 1u].lastInLeaf = true;
+    } else {
+      wide.child[k] = collapse(children[k]);
+    }
+  }
+  wideNodes_[index] = wide;
+  return index;
+}
+/// [collapse]
+
+/// [traverse]
+// (flatten: inline the sphere test into the loop, as it is in the scene's flat loop; a call per sphere costs more
+// than the test.)
+template <bool kAnyHit, bool kCountWork, class V> [[gnu::flatten]] Bvh::Traversal Bvh::traverse(const Ray& ray) const
+{
+  Traversal found{ray.tmax, -1, BvhWork{}};
+  if (wideNodes_.empty())
+    return found;
+  BoxRay<V> boxRay = prepareBoxRay<V>(ray);
+  // The nearest hit so far, rounded up to a float: a box the ray enters beyond it is skipped.
+  float tNearest = boxRay.tmax[0];
+
+  // Depth first, from a stack of what is still to visit (at most kWidth − 1 entries per level), each entry with
+  // where the ray enters its box.
+  struct Entry {
+    std::uint32_t child; // as BvhWideNode::child
+    float tEnter;
+  };
+  Entry stack[(BvhWideNode::kWidth - 1) * kMaxDepth + 1];
+  int stackSize = 0;
+  std::uint32_t current = 0; // the root
+  while (true) {
+    if ((current & BvhWideNode::kLeaf) == 0) {
+      // An interior node: test its children's boxes together. (The mask keeps empty slots out even for a ray
+      // with a NaN in it, which "hits" every box.)
+      const BvhWideNode& node = wideNodes_[current];
+      if constexpr (kCountWork)
+        found.work.nodesVisited += node.boxes;
+      float t[BvhWideNode::kWidth];
+      unsigned hits = hitsBoxes<V>(node, boxRay, t) & ((1u << node.boxes) - 1);
+      if (hits != 0) {
+        // Go on to a child the ray enters and push the others. The nearer first, so that a closest-hit query
+        // finds a near hit early and then skips what lies beyond it; a shadow ray takes any blocker, and
+        // ordering does not pay for itself there. One child hit and two are the usual cases: no sorting.
+        unsigned k = unsigned(std::countr_zero(hits));
+        hits &= hits - 1;
+        if (hits == 0) {
+          current = node.child[k];
+          continue;
+        }
+        unsigned k2 = unsigned(std::countr_zero(hits));
+        hits &= hits - 1;
+        if (hits == 0) {
+          const bool swap = !kAnyHit && t[k2] < t[k];
+          const unsigned nearer = swap ? k2 : k, farther = swap ? k : k2;
+          stack[stackSize++] = Entry{node.child[farther], t[farther]};
+          current = node.child[nearer];
+          continue;
+        }
+        // Three or more: push them all, sort them by entry (nearest on top), and take the top.
+        const int first = stackSize;
+        stack[stackSize++] = Entry{node.child[k], t[k]};
+        stack[stackSize++] = Entry{node.child[k2], t[k2]};
+        for (; hits != 0; hits &= hits - 1) {
+          k = unsigned(std::countr_zero(hits));
+          stack[stackSize++] = Entry{node.child[k], t[k]};
+        }
+        if constexpr (!kAnyHit)
+          for (int i = first + 1; i < stackSize; ++i) {
+            const Entry e = stack[i];
+            int j = i;
+            for (; j > first && stack[j - 1].tEnter < e.tEnter; --j)
+              stack[j] = stack[j - 1];
+            stack[j] = e;
+          }
+        current = stack[--stackSize].child;
+        continue;
+      }
+    } else {
+      // A leaf: test its spheres. Keep the nearer hit, or on a tie the lower index (as the brute-force
+      // loop's strict "nearer" does), so the answer does not depend on the order of the tree.
+      for (std::uint32_t i = current & ~BvhWideNode::kLeaf;; ++i) {
+        const Primitive& p = primitives_[i];
+        if constexpr (kCountWork)
+          found.work.primitivesTested += 1;
+        const std::optional<Real> t =
+            intersectSphere(ray.origin, ray.direction, p.center, p.radius, ray.tmin, ray.tmax);
+        if (t) {
+          if constexpr (kAnyHit)
+            return Traversal{*t, p.index, found.work}; // a shadow ray needs no more than one blocker
+          if (*t < found.t || (*t == found.t && p.index < found.primitive)) {
+            found.t = *t;
+            found.primitive = p.index;
+            tNearest = floatAbove(found.t);
+            fill(boxRay.tmax, tNearest);
+          }
+        }
+        if (p.lastInLeaf)
+          break;
+      }
+    }
+    // Next from the stack, skipping what the ray enters only beyond a hit found since it was pushed.
+    do {
+      if (stackSize == 0)
+        return found;
+      --stackSize;
+    } while (stack[stackSize].tEnter > tNearest);
+    current = stack[stackSize].child;
+  }
+}
+/// [traverse]
+
+#if RAYLIFE_HAS_AVX2
+// The traversal with a node's eight boxes in one register, built for AVX2 (flatten: all of it, the sphere tests
+// too, is inlined and built so). The same float operations as four at a time, so the same boxes, bit for bit.
+template <bool kAnyHit, bool kCountWork>
+RAYLIFE_AVX2 [[gnu::flatten]] Bvh::Traversal Bvh::traverseEight(const Ray& ray) const
+{
+  return traverse<kAnyHit, kCountWork, Float8>(ray);
+}
+#endif
+
+template <bool kAnyHit, bool kCountWork> Bvh::Traversal Bvh::dispatch(const Ray& ray) const
+{
+#if RAYLIFE_HAS_AVX2
+  if (eightAtOnce_)
+    return traverseEight<kAnyHit, kCountWork>(ray);
+#endif
+  return traverse<kAnyHit, kCountWork, Float4>(ray);
+}
+
+std::optional<BvhHit> Bvh::intersect(const Ray& ray) const
+{
+  const Traversal r = dispatch<false, false>(ray);
+  if (r.primitive < 0)
+    return std::nullopt;
+  return BvhHit{r.t, r.primitive};
+}
+
+bool Bvh::occluded(const Ray& ray) const { return dispatch<true, false>(ray).primitive >= 0; }
+
+BvhTracedHit Bvh::intersectWithWork(const Ray& ray) const
+{
+  const Traversal r = dispatch<false, true>(ray);
+  if (r.primitive < 0)
+    return BvhTracedHit{std::nullopt, r.work};
+  return BvhTracedHit{BvhHit{r.t, r.primitive}, r.work};
+}
+
+BvhTracedOcclusion Bvh::occludedWithWork(const Ray& ray) const
+{
+  const Traversal r = dispatch<true, true>(ray);
+  return BvhTracedOcclusion{r.primitive >= 0, r.work};
+}
+
+Real Bvh::sahCost(const BvhCosts& costs) const
+{
+  if (nodes_.empty())
+    return 0;
+  const Real rootArea = nodeArea(nodes_[0]);
+  Real cost = 0;
+  for (const BvhNode& n : nodes_) {
+    const Real share = rootArea > 0 ? nodeArea(n) / rootArea : Real(1);
+    cost += n.count > 0 ? share * Real(n.count) * costs.intersection : share * costs.traversal;
+  }
+  return cost;
+}
+
+} // namespace raylife

@@ -1,0 +1,46 @@
+/// @file hit.h
+/// @brief The record of a ray's nearest hit, and the rays that leave it.
+#pragma once
+
+#include "core/math.h"
+#include "geometry/ray.h"
+#include "geometry/sphere.h"
+
+namespace raylife {
+
+/// What a ray hit: returned by value from Scene::intersect.
+struct Hit {
+  Real t = 0;          ///< Distance along the ray (the ray's direction is unit).
+  Vec3 point{0};       ///< The hit point, on the surface (re-projected).
+  Vec3 normal{0, 0, 1}; ///< Outward unit surface normal (points out of the sphere, whatever side the ray came from).
+  Vec3 pointError{0};  ///< Per-component bound on the floating-point error of `point`.
+  int sphere = -1;     ///< Index into Scene::spheres.
+  int material = -1;   ///< Index into Scene::materials.
+
+  /// True when the ray arrived from outside the sphere (its direction opposes the outward normal).
+  bool frontFace(const Vec3& rayDirection) const { return glm::dot(rayDirection, normal) < 0; }
+};
+
+/// A ray leaving the hit point in unit direction `dir`, its origin moved off the surface by the point's error
+/// bound to the side `dir` leaves through, so it cannot hit the same surface at t ≈ 0 (tmin = 0).
+inline Ray spawnRay(const Hit& hit, const Vec3& dir)
+{
+  return Ray{offsetRayOrigin(hit.point, hit.pointError, hit.normal, dir), dir, 0, kInfinity};
+}
+
+// [spawnRayTo]
+/// A ray from the hit point towards `target` (a point light, say), stopping just short of it: tmax is the
+/// distance shortened by the relative kShadowRayShorten, so a surface through the target does not block it.
+inline Ray spawnRayTo(const Hit& hit, const Vec3& target)
+{
+  const Vec3 toTarget = target - hit.point;
+  const Real distance = glm::length(toTarget);
+  if (!(distance > 0)) // the target is the hit point itself: an empty ray, which nothing can block
+    return Ray{hit.point, hit.normal, 0, 0};
+  const Vec3 dir = toTarget / distance;
+  const Vec3 origin = offsetRayOrigin(hit.point, hit.pointError, hit.normal, dir);
+  return Ray{origin, dir, 0, glm::length(target - origin) * (1 - kShadowRayShorten)};
+}
+// [spawnRayTo]
+
+} // namespace raylife

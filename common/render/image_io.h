@@ -1,0 +1,66 @@
+/// @file image_io.h
+/// @brief Image files: PNG (clamped, sRGB-encoded, 8 bits) and PFM (linear float), written atomically.
+#pragma once
+
+#include "render/film.h"
+
+#include <atomic>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace raylife {
+
+/// A failure to read or write an image file. what() names the file and the cause.
+class ImageIoError : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
+/// The sRGB transfer function: linear value in [0, 1] → encoded value in [0, 1] (IEC 61966-2-1).
+float linearToSrgb(float linear);
+/// The inverse of linearToSrgb: encoded value in [0, 1] → linear value in [0, 1].
+float srgbToLinear(float encoded);
+
+/// The bytes of a PNG file of `image`: each channel clamped to [0, 1], sRGB-encoded, rounded to 8 bits.
+std::vector<unsigned char> encodePng(const Image& image);
+/// The bytes of a PFM file of `image` ("PF", little-endian, linear floats unclamped, rows stored bottom-up as
+/// the format requires).
+std::vector<unsigned char> encodePfm(const Image& image);
+
+/// Reads a PFM file (colour "PF" or grey "Pf", either byte order) into linear floats, row 0 at the top.
+/// @throws ImageIoError naming the file and the fault.
+Image readPfm(const std::string& path);
+/// Reads a PNG file (8 or 16 bits, any channel count) and decodes sRGB to linear. @throws ImageIoError.
+Image readPng(const std::string& path);
+/// Reads a PNG or PFM file, chosen by its extension. @throws ImageIoError.
+Image readImage(const std::string& path);
+
+/// True when `path` ends in ".png" or ".pfm" (case-sensitive): the formats raylife writes.
+bool isImagePath(const std::string& path);
+
+/// Encodes `image` in the format `path`'s extension names (.png or .pfm). @throws ImageIoError otherwise.
+std::vector<unsigned char> encodeImage(const Image& image, const std::string& path);
+
+/// writeFilesAtomically was cancelled through its `cancel` flag: nothing was written.
+class WriteCancelled : public ImageIoError {
+public:
+  using ImageIoError::ImageIoError;
+};
+
+/// Writes several files all or nothing: each is first written in full (and synced) to a temporary file in its
+/// target's folder, and only when all have been written are they renamed into place (rename is atomic on one
+/// file system). On any failure every temporary file is removed, no target is touched, and ImageIoError says
+/// what failed and that an existing file was left as it was.
+/// @param files  the files to write: each target path with its bytes (its temporary file goes in its folder).
+/// @param cancel if not null, checked between chunks of 1 MiB and before the renames: once it is true, the
+///               temporary files are removed and WriteCancelled is thrown. It may be set from a signal handler.
+/// Tests may set the environment variable RAYLIFE_FAIL_WRITE_AFTER=N to make every write fail with ENOSPC
+/// after N bytes of a file, as a full disk would.
+void writeFilesAtomically(const std::vector<std::pair<std::string, std::vector<unsigned char>>>& files,
+                          const std::atomic<bool>* cancel = nullptr);
+
+/// Writes one image (PNG or PFM by extension) atomically. @throws ImageIoError.
+void writeImage(const Image& image, const std::string& path);
+
+} // namespace raylife

@@ -1,0 +1,214 @@
+#include "render/render_loop.h"
+
+
+#include <omp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+namespace raylife {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+constexpr int kTileSize = 16;
+// A batch of samples is cut to about this long, so that Ctrl-C and a time budget are answered within it.
+constexpr double kBatchSeconds = 0.25;
+
+struct Tile {
+  int x0, y0, x1, y1;
+};
+
+std::vector<Tile> makeTiles(int width, int height)
+{
+  std::vector<Tile> tiles;
+  for (int y = 0; y < height; y += kTileSize)
+    for (int x = 0; x < width; x += kTileSize)
+      tiles.push_back({x, y, std::min(x + kTileSize, width), std::min(y + kTileSize, height)});
+  return tiles;
+}
+
+// The side of the grid of strata the pixel's samples are spread over: √spp rounded down; 0 when the sample count
+// is not known in advance (--time, adaptive sampling), for which the pixel's sequence stratifies instead.
+int strataPerSide(std::optional<int> spp) { return spp ? int(std::sqrt(double(*spp))) : 0; }
+
+// Where sample s of a pixel falls inside it, in [0, 1)²: jittered in its stratum when s < n², else anywhere; with
+// n = 0, point s of the pixel's scrambled Sobol sequence, stratified at every power of two and in every aligned
+// block of 16 samples (what a pixel takes between two adaptive checkpoints is whole such blocks).
+Vec2 pixelOffset(PixelSampling mode, int s, int n, Sampler& sampler, const PixelSequence& sequence)
+{
+  if (mode == PixelSampling::Centre)
+    return Vec2(Real(0.5));
+  if (n == 0)
+    return sequence.point(std::uint32_t(s));
+  const Vec2 jitter = sampler.next2D();
+  if (n == 1 || std::int64_t(s) >= std::int64_t(n) * n)
+    return jitter;
+  // Stratified: cell (s mod n, s div n) of an n × n grid, jittered inside the cell.
+  const Real cx = Real(s % n), cy = Real(s / n);
+  return Vec2((cx + jitter.x) / Real(n), (cy + jitter.y) / Real(n));
+}
+
+// The sample count at which adaptive sampling looks at the pixels again, after looking at `done`: a quarter more
+// (in steps of kAdaptiveMinSamples), so that a pixel takes at most about 25 % more samples than it needed, and a
+// long render has few checkpoints (each one a pass over the film and the end of a batch).
+int adaptiveCheckpointAfter(int done)
+{
+  return done + std::max(kAdaptiveMinSamples, done / 4 / kAdaptiveMinSamples * kAdaptiveMinSamples);
+}
+
+void drawProgress(double fraction, double elapsed)
+{
+  const int width = 40;
+  const int filled = int(std::clamp(fraction, 0.0, 1.0) * width);
+  std::fprintf(stderr, "\r[%.*s%*s] %3d%%  %.1f s ", filled, "########################################",
+               width - filled, "", int(fraction * 100), elapsed);
+  std::fflush(stderr);
+}
+
+} // namespace
+
+RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                    const TraceFunction& trace)
+{
+  const int width = camera.width(), height = camera.height();
+  RenderResult result{Film(width, height)};
+  const std::vector<Tile> allTiles = makeTiles(width, height);
+  std::vector<Tile> tiles = allTiles; // the work of a batch (adaptive sampling narrows it to the active pixels)
+  const int threads = settings.threads > 0 ? settings.threads : omp_get_max_threads();
+  const int target = settings.spp ? *settings.spp : (settings.seconds ? 0 : 1); // 0: until the time is spent
+  const int strata = strataPerSide(settings.adaptive ? std::nullopt : settings.spp);
+
+  const auto start = Clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+  double lastDraw = -1;
+
+  // Samples are taken in batches: batch [s0, s1) gives every pixel samples s0 .. s1 − 1, in that order. A batch
+  // is one OpenMP region, so a batch of many samples keeps the threads busy without a fork and join per sample
+  // (which, on a loaded machine, costs more than the samples of a small image). Batches double in size, and are
+  // cut to about kBatchSeconds (and to what is left of a time budget) so that a stop request is answered soon.
+  int done = 0;
+  // Adaptive sampling: which pixels still take samples (1) or have stopped (0), decided between batches.
+  std::vector<unsigned char> active(std::size_t(width) * std::size_t(height), 1);
+  std::size_t activeCount = active.size();
+  std::uint64_t samplesTaken = 0;
+  int nextCheckpoint = kAdaptiveMinSamples;
+  while (target == 0 || done < target) {
+    if (settings.adaptive && done == nextCheckpoint) {
+      // A checkpoint: stop each pixel whose estimated relative error is below the threshold, and its eight
+      // neighbours' too. (Alone, a pixel on an edge whose samples all happened to miss the object shows no
+      // variance and would stop with its error; a neighbour that saw the edge keeps it going.)
+      std::vector<unsigned char> below(active.size());
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+          const double error = result.film.relativeError(x, y, kAdaptiveMeanFloor);
+          // (+∞ at this count: every sample black; after kAdaptiveBlackSamples of them, taken as black.)
+          const bool black = std::isinf(error) && result.film.samples(x, y) >= std::uint32_t(kAdaptiveBlackSamples);
+          below[std::size_t(y) * std::size_t(width) + std::size_t(x)] = error < *settings.adaptive || black;
+        }
+      activeCount = 0;
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+          unsigned char& a = active[std::size_t(y) * std::size_t(width) + std::size_t(x)];
+          bool settled = true;
+          for (int ny = std::max(0, y - 1); ny <= std::min(height - 1, y + 1); ++ny)
+            for (int nx = std::max(0, x - 1); nx <= std::min(width - 1, x + 1); ++nx)
+              settled = settled && below[std::size_t(ny) * std::size_t(width) + std::size_t(nx)];
+          if (a && settled)
+            a = 0;
+          activeCount += a;
+        }
+      if (activeCount == 0)
+        break;
+      nextCheckpoint = adaptiveCheckpointAfter(done);
+      // Hand out only the rows of tiles that still have active pixels, so that the threads share the work left
+      // even when it gathers in a few tiles.
+      tiles.clear();
+      for (const Tile& t : allTiles)
+        for (int y = t.y0; y < t.y1; ++y) {
+          const auto row = active.begin() + std::ptrdiff_t(std::size_t(y) * std::size_t(width));
+          if (std::find(row + t.x0, row + t.x1, 1) != row + t.x1)
+            tiles.push_back({t.x0, y, t.x1, y + 1});
+        }
+    }
+    if (done > 0 && settings.seconds && elapsed() >= *settings.seconds)
+      break;
+    if (done > 0 && settings.stop && settings.stop->load()) {
+      result.interrupted = true;
+      break;
+    }
+    int batch = std::max(1, done);
+    if (done > 0) {
+      const double perSample = elapsed() / done;
+      double budget = kBatchSeconds;
+      if (settings.seconds)
+        budget = std::min(budget, *settings.seconds - elapsed());
+      batch = std::clamp(int(budget / std::max(perSample, 1e-9)), 1, batch);
+    }
+    if (target > 0)
+      batch = std::min(batch, target - done);
+    if (settings.adaptive) // end the batch at the next checkpoint
+      batch = std::min(batch, nextCheckpoint - done);
+    const int s0 = done, s1 = done + batch;
+
+    std::uint64_t rays = 0, bad = 0;
+    std::atomic<int> tilesDone{0};
+#pragma omp parallel num_threads(threads) reduction(+ : rays, bad)
+    {
+      const std::uint64_t raysBefore = rayCount();
+#pragma omp for schedule(dynamic, 1)
+      for (std::size_t t = 0; t < tiles.size(); ++t) {
+        const Tile& tile = tiles[t];
+        // [pixel_loop]
+        for (int y = tile.y0; y < tile.y1; ++y)
+          for (int x = tile.x0; x < tile.x1; ++x) {
+            if (!active[std::size_t(y) * std::size_t(width) + std::size_t(x)])
+              continue; // stopped by adaptive sampling
+            const PixelSequence sequence(settings.seed, x, y);
+            for (int s = s0; s < s1; ++s) {
+              // One pixel sample: its own random numbers, a film position, the chapter's estimate.
+              Sampler sampler(settings.seed, x, y, std::uint64_t(s));
+              const Vec2 offset = pixelOffset(settings.pixelSampling, s, strata, sampler, sequence);
+              const Ray ray = camera.ray(Vec2(Real(x), Real(y)) + offset);
+              Color L = trace(scene, ray, sampler, settings.maxDepth);
+              // Guard the film: a NaN, infinite or negative sample is counted and replaced by black.
+              if (!isFinite(L) || L.r < 0 || L.g < 0 || L.b < 0) {
+                ++bad;
+                L = Color(0);
+              }
+              result.film.add(x, y, L);
+            }
+          }
+        // [pixel_loop]
+        const int tilesFinished = ++tilesDone;
+        if (settings.progress && omp_get_thread_num() == 0) {
+          const double now = elapsed();
+          if (now - lastDraw > 0.1) {
+            lastDraw = now;
+            const double samples = s0 + double(batch) * tilesFinished / double(tiles.size());
+            drawProgress(target > 0 ? samples / target : now / *settings.seconds, now);
+          }
+        }
+      }
+      rays += rayCount() - raysBefore;
+    }
+    result.rays += rays;
+    result.badSamples += bad;
+    done = s1;
+    result.spp = done;
+    samplesTaken += std::uint64_t(batch) * activeCount;
+  }
+  result.meanSpp = double(samplesTaken) / double(active.size());
+  result.seconds = elapsed();
+  if (settings.progress) {
+    drawProgress(1.0, result.seconds);
+    std::fprintf(stderr, "\n");
+  }
+  return result;
+}
+
+} // namespace raylife

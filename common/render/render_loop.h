@@ -1,0 +1,91 @@
+/// @file render_loop.h
+/// @brief The render loop: a scene through a camera with a chapter's trace function, over tiles, threads, samples, a
+/// time budget and adaptive sampling, into a Film. The runner (runner.h) drives it from the command line.
+#pragma once
+
+#include "core/rng.h"
+#include "render/film.h"
+#include "scene/scene.h"
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+
+namespace raylife {
+
+/// A chapter's estimator: the radiance arriving along `ray` (a primary ray), using `sampler` for any random
+/// decision and following paths of at most `maxDepth` bounces. Must be thread-safe (it is called concurrently
+/// for different pixels) and must not keep state between calls.
+using TraceFunction = std::function<Color(const Scene& scene, const Ray& ray, Sampler& sampler, int maxDepth)>;
+/// The same for chapters that neither recurse nor bound their depth.
+using SimpleTraceFunction = Color (*)(const Scene& scene, const Ray& ray, Sampler& sampler);
+
+/// Where inside a pixel the samples fall.
+enum class PixelSampling {
+  Centre,    ///< Every sample through the pixel's centre (x + ½, y + ½): no anti-aliasing.
+  /// Stratified jittered: sample s of N lies in cell s of a ⌊√N⌋² grid (uniform beyond it). Where N is not known
+  /// in advance (adaptive sampling, --time), sample s is point s of the pixel's PixelSequence (rng.h) instead.
+  Jittered,
+};
+
+/// How to render, resolved from the options and the chapter's defaults.
+struct RenderSettings {
+  std::optional<int> spp;          ///< Samples per pixel, or nothing with `seconds`.
+  std::optional<double> seconds;   ///< Time budget, or nothing with `spp`.
+  std::uint64_t seed = 0;          ///< Seed of every pixel sample's random numbers.
+  int threads = 0;                 ///< OpenMP threads; 0: every core.
+  int maxDepth = -1;               ///< Passed to the trace function; −1: unlimited.
+  PixelSampling pixelSampling = PixelSampling::Centre; ///< Where samples fall.
+  bool progress = false;           ///< Draw a progress bar on standard error.
+  /// Set to true (from a signal handler, say) to stop after the pass in flight. May be null.
+  const std::atomic<bool>* stop = nullptr;
+  /// Adaptive sampling: a pixel stops taking samples once its Film::relativeError falls below this (> 0).
+  /// Nothing: every pixel takes every sample. See render().
+  std::optional<double> adaptive;
+};
+
+/// What a render produced and what it cost.
+struct RenderResult {
+  Film film;                    ///< The accumulated samples.
+  int spp = 0;                  ///< Samples every pixel received.
+  double seconds = 0;           ///< Wall-clock time of the render loop.
+  std::uint64_t rays = 0;       ///< Rays traced (Scene::intersect and Scene::occluded calls).
+  std::uint64_t badSamples = 0; ///< Samples that were NaN, infinite or negative: replaced by 0 and counted.
+  bool interrupted = false;     ///< Stopped early through RenderSettings::stop.
+  double meanSpp = 0;           ///< Mean samples per pixel (equal to spp unless sampling was adaptive).
+};
+
+/// Adaptive sampling looks at a pixel's error only once it has this many samples, and then again each time the
+/// count has grown by a quarter, in multiples of this (16, 32, 48, 64, 80, 96, 112, 128, 160, ...: the same points
+/// whatever the threads or the timing, so the image stays reproducible).
+/// Fewer samples give too rough an estimate of the variance: a pixel whose first few samples happen to agree
+/// (all missing a small light, say) would stop with a large error.
+inline constexpr int kAdaptiveMinSamples = 16;
+/// Samples after which adaptive sampling takes a pixel whose samples have all been black to be black (its error is
+/// unknown until then: Film::relativeError): a path tracer's pixel in a dim corner may need many samples to find
+/// the light, but a pixel that looks at a black background never will.
+inline constexpr int kAdaptiveBlackSamples = 64;
+/// Radiance below which adaptive sampling measures a pixel's error absolutely rather than relative to its mean:
+/// 1/256 of white, about one 8-bit step, so that near-black pixels do not take samples without end.
+inline constexpr double kAdaptiveMeanFloor = 1.0 / 256.0;
+
+/// Renders `scene` through `camera` with `trace`.
+///
+/// The image is rendered in batches of samples over 16×16 tiles, spread over threads by OpenMP; a batch gives
+/// every pixel the same samples, batches double in size and are cut to about a quarter of a second.
+/// Sample s of pixel (x, y) draws its random numbers from Sampler(seed, x, y, s) and is added to the film in
+/// the order of s, so the image is bit-identical for any thread count (and any batching). With `seconds`,
+/// batches continue until the budget is spent (at least one sample), each cut to what is left of it; `stop`
+/// is looked at between batches. Every pixel has the same number of samples, unless `settings.adaptive` is set:
+/// then, at kAdaptiveMinSamples samples and at fixed counts after (multiples of 16), each pixel whose
+/// Film::relativeError(kAdaptiveMeanFloor) is below the threshold, and whose eight neighbours' is too, stops
+/// taking samples (batches end at these points, so which pixels go on depends only on the seed). Sample
+/// positions then follow the pixel's PixelSequence (the grid of strata assumes every pixel takes every sample).
+/// Biased, slightly: the stopping rule correlates with the samples.
+/// The render ends when every pixel has stopped, or at `spp` (then the most any pixel took) or `seconds`.
+RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                    const TraceFunction& trace);
+
+} // namespace raylife

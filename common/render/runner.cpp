@@ -1,0 +1,338 @@
+#include "render/runner.h"
+
+#include "render/image_io.h"
+#include "scene/scene_plan.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+
+#include <signal.h>
+#include <unistd.h>
+
+#ifndef RAYLIFE_SCENE_DIR
+#error "RAYLIFE_SCENE_DIR must be defined by the build"
+#endif
+
+namespace raylife {
+
+namespace {
+
+// Two images of one height side by side: `left`, then `right`.
+Image sideBySide(const Image& left, const Image& right)
+{
+  Image both(left.width + right.width, left.height);
+  for (int y = 0; y < left.height; ++y)
+    for (int c = 0; c < 3; ++c) {
+      for (int x = 0; x < left.width; ++x)
+        both.at(x, y, c) = left.at(x, y, c);
+      for (int x = 0; x < right.width; ++x)
+        both.at(left.width + x, y, c) = right.at(x, y, c);
+    }
+  return both;
+}
+
+} // namespace
+
+std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven)
+{
+  std::vector<std::string> parts;
+  auto plural = [](std::size_t n, const std::string& one, const std::string& many) {
+    return std::to_string(n) + " " + (n == 1 ? one : many);
+  };
+  if (!(uses & kUsesSpheres))
+    parts.push_back(plural(scene.spheres.size(), "sphere", "spheres"));
+  if (!(uses & kUsesColors) && (uses & kUsesSpheres))
+    parts.push_back("material colours");
+  if (!(uses & kUsesPointLights) && !scene.lights.empty())
+    parts.push_back(plural(scene.lights.size(), "point light", "point lights"));
+  if (!(uses & kUsesAmbient) && scene.ambient != Color(0))
+    parts.push_back("the ambient term");
+  if (!(uses & kUsesBackground) && scene.background != Color(0))
+    parts.push_back("the background");
+  if (uses & kUsesSpheres) {
+    std::size_t emissive = 0, asDiffuse = 0;
+    std::vector<bool> used(scene.materials.size(), false);
+    for (const Sphere& s : scene.spheres)
+      used[std::size_t(s.material)] = true;
+    for (std::size_t i = 0; i < scene.materials.size(); ++i) {
+      if (!used[i])
+        continue; // an unused material is the loader's warning, not something the chapter ignores
+      const Material& m = scene.materials[i];
+      emissive += m.isEmissive() && !(uses & kUsesEmission);
+      asDiffuse += (m.type == MaterialType::Mirror && !(uses & kUsesMirror)) ||
+                   (m.type == MaterialType::Glass && !(uses & kUsesGlass)) ||
+                   (m.type == MaterialType::Glossy && !(uses & kUsesGlossy));
+    }
+    if (emissive)
+      parts.push_back("the emission of " + plural(emissive, "material", "materials"));
+    if (asDiffuse)
+      parts.push_back("the reflection and refraction of " + plural(asDiffuse, "material", "materials") +
+                      " (shaded as diffuse)");
+  }
+  if (maxDepthGiven && !(uses & kUsesMaxDepth))
+    parts.push_back("--max-depth (nothing here recurses)");
+  std::string out;
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    out += (i == 0 ? "" : (i + 1 == parts.size() ? " and " : ", ")) + parts[i];
+  return out;
+}
+
+std::optional<double> applyPlanOptions(const std::string& name, const Scene& scene, const ChapterInfo& chapter,
+                                       const RenderOptions& options)
+{
+  if (options.verbose)
+    for (const std::string& line : describePlan(planScene(scene, chapter.uses)))
+      std::cerr << name << ": " << line << "\n";
+  if (options.adaptive && !chapter.adaptiveSampling) {
+    if (!options.quiet)
+      std::cerr << name << ": ignores --adaptive (only the Monte Carlo chapters 6 to 8 sample adaptively)\n";
+    return std::nullopt;
+  }
+  if (options.verbose && options.adaptive)
+    std::cerr << name << ": plan: adaptive sampling -> a pixel stops once its relative error < " << *options.adaptive
+              << " (checked every " << kAdaptiveMinSamples << " samples)\n";
+  return options.adaptive;
+}
+
+std::string sceneDirectory() { return RAYLIFE_SCENE_DIR; }
+
+namespace {
+
+// Ctrl-C (or SIGTERM) once: finish the pass in flight, write what there is, exit 130. Twice: stop at once and
+// write nothing. The handler touches only lock-free atomics and _exit, which are async-signal-safe.
+std::atomic<int> gSignals{0};            // SIGINT and SIGTERM received since the handlers were installed
+std::atomic<bool> gStopRequested{false}; // the render loop stops after the pass in flight
+std::atomic<bool> gWriting{false};       // the images are being written: a second signal cancels the write
+std::atomic<bool> gCancelWrite{false};   // writeFilesAtomically removes its temporary files and gives up
+static_assert(std::atomic<int>::is_always_lock_free && std::atomic<bool>::is_always_lock_free,
+              "the signal handler may only touch lock-free atomics");
+
+extern "C" void onInterrupt(int)
+{
+  if (gSignals.fetch_add(1) == 0) {
+    gStopRequested.store(true);
+    return;
+  }
+  if (gWriting.load()) {
+    gCancelWrite.store(true); // the writer removes its temporary files; nothing is renamed into place
+    return;
+  }
+  static const char message[] = "\ninterrupted twice: stopped without writing\n";
+  [[maybe_unused]] const ssize_t ignored = ::write(STDERR_FILENO, message, sizeof message - 1);
+  _exit(130);
+}
+
+// Installs onInterrupt for SIGINT and SIGTERM while it lives; puts the previous handlers back after.
+class InterruptHandlers {
+public:
+  InterruptHandlers()
+  {
+    gSignals = 0;
+    gStopRequested = false;
+    gWriting = false;
+    gCancelWrite = false;
+    struct sigaction action{};
+    action.sa_handler = onInterrupt;
+    sigemptyset(&action.sa_mask);
+    action.sa_flags = SA_RESTART; // a signal must not make a write() or read() fail with EINTR
+    sigaction(SIGINT, &action, &previousInt_);
+    sigaction(SIGTERM, &action, &previousTerm_);
+  }
+  ~InterruptHandlers()
+  {
+    sigaction(SIGINT, &previousInt_, nullptr);
+    sigaction(SIGTERM, &previousTerm_, nullptr);
+  }
+  InterruptHandlers(const InterruptHandlers&) = delete;
+  InterruptHandlers& operator=(const InterruptHandlers&) = delete;
+
+private:
+  struct sigaction previousInt_{};
+  struct sigaction previousTerm_{};
+};
+
+// Checks, before any work, that a file can be written: its folder exists and is writable, and it is no folder.
+void checkWritable(const std::string& path)
+{
+  namespace fs = std::filesystem;
+  fs::path folder = fs::path(path).parent_path();
+  if (folder.empty())
+    folder = ".";
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec))
+    throw ImageIoError("cannot write " + path + ": the folder " + folder.string() + " does not exist");
+  if (::access(folder.c_str(), W_OK) != 0)
+    throw ImageIoError("cannot write " + path + ": the folder " + folder.string() + " is not writable (" +
+                       std::strerror(errno) + ")");
+  if (fs::is_directory(path, ec))
+    throw ImageIoError("cannot write " + path + ": it is a folder");
+}
+
+std::string formatCount(std::uint64_t n)
+{
+  char buffer[32];
+  if (n >= 1000000)
+    std::snprintf(buffer, sizeof buffer, "%.1f M", double(n) / 1e6);
+  else
+    std::snprintf(buffer, sizeof buffer, "%llu", static_cast<unsigned long long>(n));
+  return buffer;
+}
+
+} // namespace
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFunction& trace)
+{
+  return runChapter(argc, argv, chapter, TraceFactory([&trace](const Scene&) { return trace; }));
+}
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
+{
+  const std::string name = chapter.binary;
+  RenderOptions options;
+  try {
+    options = parseCommandLine(argc, argv);
+  } catch (const UsageError& e) {
+    std::cerr << name << ": " << e.what() << "\n" << "usage: " << name << " [SCENE.json] [options]; see --help\n";
+    return 2;
+  }
+  const std::string defaultScene = sceneDirectory() + "/" + chapter.defaultScene;
+  if (options.help) {
+    std::cout << usageText(name, defaultScene);
+    return 0;
+  }
+
+  try {
+    // Load and check everything before any work: scene, size, outputs.
+    const Scene scene = loadScene(options.scenePath.empty() ? defaultScene : options.scenePath);
+    for (const std::string& w : scene.warnings)
+      std::cerr << name << ": warning: " << w << "\n";
+    const int width = options.width ? options.width : scene.camera.width;
+    const int height = options.height ? options.height : scene.camera.height;
+    if (std::int64_t(width) * height > kMaxPixels) {
+      std::cerr << name << ": --width/--height: an image of " << width << "x" << height << " pixels is larger than the "
+                << kMaxPixels << " pixels raylife allows\n";
+      return 2;
+    }
+    std::vector<std::string> outputs = options.outputs;
+    if (outputs.empty()) {
+      std::filesystem::create_directories("out");
+      outputs.push_back("out/" + name + ".png");
+    }
+    // (parseCommandLine has checked the extensions.)
+    for (const std::string& path : outputs)
+      checkWritable(path);
+    if (!options.variancePath.empty())
+      checkWritable(options.variancePath);
+    if (!options.statsPath.empty())
+      checkWritable(options.statsPath);
+    if (const std::string ignored = describeIgnored(scene, chapter.uses, options.maxDepth.has_value());
+        !ignored.empty() && !options.quiet)
+      std::cerr << name << ": ignores in " << scene.fileName << ": " << ignored << "\n";
+
+    RenderSettings settings;
+    settings.spp = options.spp;
+    settings.seconds = options.seconds;
+    if (!settings.spp && !settings.seconds)
+      settings.spp = chapter.defaultSpp;
+    settings.seed = options.seed;
+    settings.threads = options.threads;
+    settings.maxDepth = options.maxDepth ? *options.maxDepth : chapter.defaultMaxDepth;
+    settings.pixelSampling = chapter.pixelSampling;
+    settings.progress = !options.quiet && ::isatty(STDERR_FILENO);
+    settings.stop = &gStopRequested;
+    settings.adaptive = applyPlanOptions(name, scene, chapter, options); // --verbose, --adaptive
+
+    // Render, with Ctrl-C and SIGTERM turned into "stop after this pass" (until the images are written).
+    const InterruptHandlers handlers;
+    const Camera camera = scene.makeCamera(width, height);
+    const TraceFunction trace = makeTrace(scene);
+    RenderResult result = render(scene, camera, settings, trace);
+    std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
+    if (chapter.besideTrace) {
+      RenderSettings same = settings;
+      same.spp = result.spp;
+      same.seconds.reset();
+      beside = render(scene, camera, same, chapter.besideTrace);
+      result.rays += beside->rays;
+      result.seconds += beside->seconds;
+      result.badSamples += beside->badSamples;
+      result.interrupted = result.interrupted || beside->interrupted;
+    }
+
+    // Write every image, all or nothing.
+    std::vector<std::pair<std::string, std::vector<unsigned char>>> files;
+    const Image mean = beside ? sideBySide(result.film.mean(), beside->film.mean()) : result.film.mean();
+    for (const std::string& path : outputs)
+      files.emplace_back(path, encodeImage(mean, path));
+    if (!options.variancePath.empty())
+      files.emplace_back(options.variancePath,
+                         encodePfm(beside ? sideBySide(result.film.varianceOfMean(), beside->film.varianceOfMean())
+                                          : result.film.varianceOfMean()));
+    if (!options.statsPath.empty()) {
+      std::ostringstream json;
+      json << "{\"chapter\": \"" << name << "\", \"width\": " << mean.width << ", \"height\": " << height
+           << ", \"spp\": " << result.spp << ", \"seconds\": " << result.seconds << ", \"rays\": " << result.rays
+           << ", \"bad_samples\": " << result.badSamples << ", \"threads\": "
+           << (settings.threads > 0 ? settings.threads : omp_get_max_threads())
+           << ", \"interrupted\": " << (result.interrupted ? "true" : "false")
+           << ", \"mean_spp\": " << result.meanSpp << ", \"adaptive\": " << (settings.adaptive ? "true" : "false")
+           << "}\n";
+      const std::string text = json.str();
+      files.emplace_back(options.statsPath, std::vector<unsigned char>(text.begin(), text.end()));
+    }
+    gWriting = true; // from here a second signal cancels the write (before, it _exits: nothing to clean up)
+    try {
+      writeFilesAtomically(files, &gCancelWrite);
+    } catch (const WriteCancelled&) {
+      std::cerr << name << ": interrupted twice: stopped without writing\n";
+      return 130;
+    }
+    gWriting = false;
+
+    if (!options.quiet) {
+      char line[256];
+      const double mrays = result.seconds > 0 ? double(result.rays) / result.seconds / 1e6 : 0.0;
+      std::snprintf(line, sizeof line, "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s", name.c_str(), mean.width,
+                    height, result.spp, result.seconds, formatCount(result.rays).c_str(), mrays);
+      std::cerr << line;
+      if (settings.adaptive)
+        std::cerr << " (adaptive: at most " << result.spp << ", mean " << result.meanSpp << " spp)";
+      if (result.badSamples)
+        std::cerr << ", " << result.badSamples << " bad samples set to 0";
+      if (result.interrupted)
+        std::cerr << " (interrupted after " << result.spp << " spp)";
+      std::cerr << " -> " << outputs[0];
+      for (std::size_t i = 1; i < outputs.size(); ++i)
+        std::cerr << ", " << outputs[i];
+      std::cerr << "\n";
+    }
+    return result.interrupted ? 130 : 0;
+  } catch (const SceneError& e) {
+    std::cerr << name << ": " << e.what() << "\n";
+  } catch (const ImageIoError& e) {
+    std::cerr << name << ": " << e.what() << "; nothing was written\n";
+  } catch (const std::filesystem::filesystem_error& e) {
+    std::cerr << name << ": " << e.what() << "\n";
+  } catch (const std::bad_alloc&) {
+    std::cerr << name << ": out of memory; nothing was written\n";
+  } catch (const std::exception& e) {
+    std::cerr << name << ": internal error: " << e.what() << "; nothing was written (please report this)\n";
+  }
+  return 1;
+}
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace)
+{
+  return runChapter(argc, argv, chapter,
+                    [trace](const Scene& scene, const Ray& ray, Sampler& sampler, int) { return trace(scene, ray, sampler); });
+}
+
+} // namespace raylife

@@ -1,0 +1,56 @@
+#include "scene/camera.h"
+
+namespace raylife {
+
+// [makeCameraBasis]
+std::variant<CameraBasis, BasisError> makeCameraBasis(const Vec3& eye, const Vec3& focal, const Vec3& up)
+{
+  if (!isFinite(eye) || !isFinite(focal) || !isFinite(up))
+    return BasisError{"eye, focal and up must be finite"};
+  const Vec3 view = eye - focal;
+  const Real viewLength = glm::length(view);
+  if (!(viewLength > 0))
+    return BasisError{"eye and focal are the same point, so there is no view direction"};
+  const Real upLength = glm::length(up);
+  if (!(upLength > 0))
+    return BasisError{"the up vector has zero length"};
+
+  // w points from the focal point back to the eye; the camera looks along −w.
+  CameraBasis b;
+  b.w = view / viewLength;
+  // |up × w| = |up| sin θ: too small a sine and u is rounding noise, so refuse rather than guess.
+  const Vec3 side = glm::cross(up / upLength, b.w);
+  const Real sine = glm::length(side);
+  if (!(sine >= kMinUpSine))
+    return BasisError{"the up vector is parallel to the view direction (eye - focal)"};
+  // Rounding leaves `side` a component along w of a few u, which dividing by a small sine magnifies (in float,
+  // to 1e-2 at sine 2e-6: tests/stability/test_camera_up.cpp). One Gram–Schmidt step removes it, so u ⟂ w to
+  // rounding whatever the sine.
+  const Vec3 across = side - glm::dot(side, b.w) * b.w;
+  b.u = across / glm::length(across);
+  b.v = glm::cross(b.w, b.u); // unit: w and u are orthonormal
+  return b;
+}
+// [makeCameraBasis]
+
+Camera::Camera(const CameraBasis& basis, const Vec3& eye, Real vfovDeg, int width, int height)
+    : basis_(basis), eye_(eye), width_(width), height_(height)
+{
+  halfHeight_ = std::tan(glm::radians(vfovDeg) / 2);
+  halfWidth_ = halfHeight_ * Real(width) / Real(height);
+}
+
+// [camera_ray]
+Ray Camera::ray(Vec2 film) const
+{
+  // Film position in pixels → image-plane coordinates in [−halfWidth, halfWidth] × [−halfHeight, halfHeight],
+  // with y flipped so that row 0 is the top.
+  const Real x = (2 * film.x / Real(width_) - 1) * halfWidth_;
+  const Real y = (1 - 2 * film.y / Real(height_)) * halfHeight_;
+  const Real z = 1;
+  const Vec3 d = basis_.u * x + basis_.v * y - basis_.w * z;
+  return Ray{eye_, glm::normalize(d), 0, kInfinity};
+}
+// [camera_ray]
+
+} // namespace raylife

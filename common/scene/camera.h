@@ -1,0 +1,65 @@
+/// @file camera.h
+/// @brief The pinhole camera: the lecture's orthonormal basis and d = u·x + v·y − w·z.
+#pragma once
+
+#include "core/math.h"
+#include "geometry/ray.h"
+
+#include <string>
+#include <variant>
+
+namespace raylife {
+
+/// An orthonormal, right-handed camera frame (u × v = w).
+struct CameraBasis {
+  Vec3 u; ///< Right.
+  Vec3 v; ///< Up (in the image).
+  Vec3 w; ///< Backwards: from the focal point towards the eye. The camera looks along −w.
+};
+
+/// Why a camera basis could not be built (empty when it could).
+struct BasisError {
+  std::string message; ///< Human-readable fault, e.g. "the up vector is parallel to the view direction".
+};
+
+/// Builds the lecture's basis: w = (eye − focal)/|eye − focal|, u = (up × w)/|up × w|, v = w × u.
+///
+/// @return the basis, or an error when eye == focal, up is zero, up is (within kMinUpSine) parallel to the
+///         view direction, or any input is not finite. Never returns a basis with a NaN in it.
+std::variant<CameraBasis, BasisError> makeCameraBasis(const Vec3& eye, const Vec3& focal, const Vec3& up);
+
+/// A pinhole camera that maps a position on the image to a primary ray.
+///
+/// Image coordinates: x to the right in [0, width], y downwards in [0, height]; pixel (i, j) covers
+/// [i, i+1] × [j, j+1], so its centre is (i + ½, j + ½). Row 0 is the top of the image.
+class Camera {
+public:
+  /// @param basis   a basis from makeCameraBasis (orthonormal).
+  /// @param eye     the centre of projection, world space.
+  /// @param vfovDeg full vertical field of view in degrees, in (0, 180).
+  /// @param width,height image size in pixels, ≥ 1.
+  Camera(const CameraBasis& basis, const Vec3& eye, Real vfovDeg, int width, int height);
+
+  /// The primary ray through image position `film` (pixels, see the class comment).
+  /// Its direction is d = u·x + v·y − w·z with z = 1 and (x, y) the position on the image plane, normalised.
+  Ray ray(Vec2 film) const;
+
+  /// The camera frame.
+  const CameraBasis& basis() const { return basis_; }
+  /// The centre of projection.
+  const Vec3& eye() const { return eye_; }
+  /// Image width in pixels.
+  int width() const { return width_; }
+  /// Image height in pixels.
+  int height() const { return height_; }
+
+private:
+  CameraBasis basis_;
+  Vec3 eye_;
+  Real halfHeight_; // tan(vfov / 2): half the image plane's height at z = 1
+  Real halfWidth_;  // halfHeight_ · width / height
+  int width_;
+  int height_;
+};
+
+} // namespace raylife

@@ -1,0 +1,108 @@
+#include "scene/light_sampling.h"
+
+#include <algorithm>
+
+namespace raylife {
+
+LightSampler::LightSampler(const Scene& scene) : scene_(scene), sphereProbability_(scene.spheres.size(), 0)
+{
+  // Each light's power Φ (its luminance): π·Le·4πr² for an emissive sphere, 4π·I for a point light.
+  std::vector<Real> power;
+  for (std::size_t i = 0; i < scene.spheres.size(); ++i) {
+    const Sphere& s = scene.spheres[i];
+    const Material& m = scene.materials[std::size_t(s.material)];
+    const Real phi = luminance(m.emission) * kPi * 4 * kPi * s.radius * s.radius;
+    if (m.isEmissive() && phi > 0) {
+      lights_.push_back(int(i));
+      power.push_back(phi);
+    }
+  }
+  for (std::size_t i = 0; i < scene.lights.size(); ++i) {
+    const Real phi = 4 * kPi * luminance(scene.lights[i].intensity);
+    if (phi > 0) {
+      lights_.push_back(-int(i) - 1);
+      power.push_back(phi);
+    }
+  }
+  // The cumulative distribution, normalised; the last entry is exactly 1 so that every u < 1 finds a light.
+  Real total = 0;
+  for (Real p : power)
+    total += p;
+  if (!(total > 0)) {
+    lights_.clear();
+    return;
+  }
+  Real running = 0;
+  for (std::size_t k = 0; k < power.size(); ++k) {
+    running += power[k];
+    cdf_.push_back(running / total);
+    if (lights_[k] >= 0)
+      sphereProbability_[std::size_t(lights_[k])] = power[k] / total;
+  }
+  cdf_.back() = 1;
+}
+
+// [sample]
+std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Vec2 u) const
+{
+  if (cdf_.empty())
+    return std::nullopt;
+  // Choose a light by inverting the cumulative distribution of power.
+  const std::size_t k = std::size_t(std::upper_bound(cdf_.begin(), cdf_.end(), uLight) - cdf_.begin());
+  const std::size_t chosen = std::min(k, cdf_.size() - 1);
+  const Real choice = cdf_[chosen] - (chosen > 0 ? cdf_[chosen - 1] : 0);
+  const int light = lights_[chosen];
+
+  // A point light: the one direction towards it, with the inverse-square law; a delta light has no density.
+  if (light < 0) {
+    const PointLight& p = scene_.lights[std::size_t(-light - 1)];
+    const std::optional<LightArrival> in = p.arrivalAt(ref);
+    if (!in)
+      return std::nullopt;
+    return LightSample{in->direction, p.position, in->intensity, choice, -1, true};
+  }
+
+  // An emissive sphere: a direction uniform in the cone it subtends, and the point it first hits on the sphere.
+  const Sphere& s = scene_.spheres[std::size_t(light)];
+  const Vec3 wi = sampleSphereCone(ref, s.center, s.radius, u);
+  const Real pdf = choice * sphereConePdf(ref, s.center, s.radius);
+  const std::optional<SphereRoots<Real>> roots = intersectSphereRoots(ref, wi, s.center, s.radius);
+  // A direction at the cone's very edge may graze past by rounding: take the closest approach, which is on the
+  // sphere to within that rounding. From inside, the far root is the one in front.
+  Real t = glm::dot(s.center - ref, wi);
+  if (roots)
+    t = roots->t0 >= 0 ? roots->t0 : roots->t1;
+  const Vec3 target = ref + std::max(Real(0), t) * wi;
+  return LightSample{wi, target, scene_.materials[std::size_t(s.material)].emission, pdf, light, false};
+}
+// [sample]
+
+// [visibleImpl]
+bool lightVisible(const Scene& scene, const Hit& hit, const LightSample& ls)
+{
+  if (ls.delta)
+    return !scene.occluded(spawnRayTo(hit, ls.target));
+  // Where the shadow ray first meets the light, from the ray's own origin (the sphere test Scene::intersect makes).
+  // Nowhere ahead: the direction leaves the light's own surface, or grazes past its edge by rounding.
+  Ray ray = spawnRay(hit, ls.wi);
+  const Sphere& light = scene.spheres[std::size_t(ls.sphere)];
+  const std::optional<Real> t =
+      intersectSphere(ray.origin, ray.direction, light.center, light.radius, ray.tmin, ray.tmax);
+  if (!t)
+    return false;
+  // Nothing may be met before it: an any-hit query over [0, t), which the light's own root t does not enter.
+  ray.tmax = *t;
+  return !scene.occluded(ray);
+}
+// [visibleImpl]
+
+Real LightSampler::pdf(const Vec3& ref, int sphere) const
+{
+  const Real choice = sphereProbability_[std::size_t(sphere)];
+  if (!(choice > 0))
+    return 0;
+  const Sphere& s = scene_.spheres[std::size_t(sphere)];
+  return choice * sphereConePdf(ref, s.center, s.radius);
+}
+
+} // namespace raylife

@@ -1,0 +1,135 @@
+/// @file scene.h
+/// @brief The scene: camera settings, materials, spheres and lights, its intersection queries, and its loader.
+#pragma once
+
+#include "geometry/bvh.h"
+#include "scene/camera.h"
+#include "geometry/hit.h"
+#include "shading/light.h"
+#include "shading/material.h"
+#include "geometry/ray.h"
+#include "geometry/sphere.h"
+#include "geometry/sphere_lanes.h"
+
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace raylife {
+
+/// The camera as the scene file states it; the image size may be overridden on the command line.
+struct CameraSpec {
+  Vec3 eye{0, 0, 5};   ///< Centre of projection.
+  Vec3 focal{0};       ///< The point looked at.
+  Vec3 up{0, 1, 0};    ///< Roughly up; must not be parallel to eye − focal.
+  Real vfovDeg = 40;   ///< Full vertical field of view in degrees, in (0, 180).
+  int width = 320;     ///< Default image width in pixels, ≥ 1.
+  int height = 240;    ///< Default image height in pixels, ≥ 1.
+  CameraBasis basis{}; ///< The orthonormal basis, built and checked when the scene is loaded.
+};
+
+/// Largest image the loader and the command line accept, in pixels (width × height): 8192 × 8192.
+/// The film keeps about 56 bytes a pixel, so this bounds its memory at about 3.5 GiB.
+inline constexpr std::int64_t kMaxPixels = std::int64_t(1) << 26;
+
+/// Scenes with at most this many spheres are searched as a flat list; larger ones through a BVH. Below the
+/// crossover a flat loop beats a tree (no boxes to test, no stack). Measured with `tools/bvh_bench crossover` on the
+/// random-spheres scene, one thread: the tree overtakes the one-by-one loop at about 15 spheres for camera rays and
+/// 8 for shadow rays; for chapter 4's mix (1.3 shadow rays per camera ray) at 10. So the Cornell box (9) stays a
+/// flat list. (Four at a time, the list would hold its own against the tree up to about 20 spheres, but the
+/// threshold is the one-by-one loop's, which every CPU runs.)
+inline constexpr std::size_t kFlatListMaxSpheres = 9;
+
+/// A flat list of at least this many spheres tests them four at a time (sphere_lanes.h) where the CPU has AVX2;
+/// a shorter one one by one, whose early exits (a sphere behind the ray, a miss without a square root) are then
+/// cheaper than four lanes' full test and their reduction. Measured with `tools/bvh_bench crossover`, one thread:
+/// for chapter 4's mix the two are even at 6 spheres and four at a time wins from 7; chapter 4 on
+/// scenes/spheres.json (5 spheres) ran 5% slower four at a time. Rays inside large spheres favour the lanes more:
+/// chapter 6 in the Cornell box (9) runs 1.13 to 1.25 times as fast.
+inline constexpr std::size_t kLanesMinSpheres = 7;
+
+/// Scene::intersectWithWork's answer: the hit, and the work the query did.
+struct TracedHit {
+  std::optional<Hit> hit; ///< As Scene::intersect.
+  BvhWork work;           ///< Boxes and spheres tested (no boxes when the scene is searched one by one).
+};
+
+/// Scene::occludedWithWork's answer: the occlusion, and the work the query did.
+struct TracedOcclusion {
+  bool occluded = false; ///< As Scene::occluded.
+  BvhWork work;          ///< Boxes and spheres tested until the answer was known.
+};
+
+/// A loaded, validated scene. Immutable while rendering, so it is shared by all threads without locks.
+struct Scene {
+  std::string fileName;            ///< Where it came from (for messages).
+  CameraSpec camera;               ///< The camera.
+  Color background{0};             ///< Radiance of every ray that leaves the scene, ≥ 0.
+  Color ambient{0};                ///< The lecture's ambient term (chapters 3 to 5), ≥ 0.
+  std::vector<Material> materials; ///< Indexed by Sphere::material.
+  std::vector<Sphere> spheres;     ///< At least one.
+  std::vector<PointLight> lights;  ///< Point lights (may be empty).
+  std::vector<std::string> warnings; ///< Non-fatal remarks from the loader (an unused material, say).
+
+  /// The BVH over `spheres`, or an empty one. Filled by buildAccelerator(), which the loader calls.
+  /// Contract: intersect and occluded use it only while it covers exactly spheres.size() spheres (see
+  /// usesAccelerator), and otherwise search the spheres one by one, with the same answers. So a scene filled by
+  /// hand works without it; but whoever changes `spheres` after building it must call buildAccelerator() again
+  /// (a tree over moved spheres of the same count would answer for the old ones).
+  Bvh accelerator;
+
+  /// The spheres four to a group, for a scene the BVH does not take (of kLanesMinSpheres or more), where the CPU
+  /// tests four at once (sphere_lanes.h); or an empty list. Filled by buildAccelerator() and used under the same
+  /// contract as `accelerator` (see usesLanes).
+  SphereLanes lanes;
+
+  /// Builds `accelerator` over `spheres` when there are more than kFlatListMaxSpheres, and empties it otherwise;
+  /// then `lanes` over the spheres of a scene without a tree of at least kLanesMinSpheres, where the CPU tests four
+  /// spheres at once, and empties it otherwise.
+  /// Not thread-safe: call it before rendering (no query ever builds anything, so queries are thread-safe).
+  void buildAccelerator();
+
+  /// True when intersect and occluded go through `accelerator`, false when they loop over the spheres.
+  bool usesAccelerator() const;
+
+  /// True when intersect and occluded, without a tree, test the spheres four at a time through `lanes`.
+  bool usesLanes() const;
+
+  /// The nearest hit of the ray inside [ray.tmin, ray.tmax), or nothing. Counts one ray (see rayCount()).
+  std::optional<Hit> intersect(const Ray& ray) const;
+
+  /// True when anything blocks the ray inside [ray.tmin, ray.tmax): the shadow-ray query, which may stop at
+  /// the first blocker it finds. Counts one ray.
+  bool occluded(const Ray& ray) const;
+
+  /// intersect, also returning the work it did (for chapter 9's heat map). Counts one ray.
+  TracedHit intersectWithWork(const Ray& ray) const;
+
+  /// occluded, also returning the work it did. Counts one ray.
+  TracedOcclusion occludedWithWork(const Ray& ray) const;
+
+  /// The camera for an image of width × height pixels (the scene's own size when these are 0).
+  Camera makeCamera(int width = 0, int height = 0) const;
+};
+
+/// A fault in a scene file. what() is the whole message: "FILE:LINE:COLUMN: /json/path: what is wrong".
+class SceneError : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Reads and validates a scene file (a regular file of at most 64 MiB). @throws SceneError naming the file, the
+/// place and the fault; the message is one printable line.
+Scene loadScene(const std::string& path);
+
+/// Parses and validates scene text; `fileName` is used only in messages. @throws SceneError.
+Scene parseScene(std::string_view text, const std::string& fileName);
+
+/// Rays this thread has traced through Scene::intersect and Scene::occluded since it started.
+/// A per-thread statistic read by the render loop (like pbrt's stat counters); never shared between threads.
+std::uint64_t rayCount();
+
+} // namespace raylife

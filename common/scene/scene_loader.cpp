@@ -1,0 +1,803 @@
+// The scene file loader: JSON (nlohmann/json) → a validated Scene. Every key is checked; every fault is reported
+// once, as "FILE:LINE:COLUMN: /json/path: what is wrong", and nothing is half-loaded.
+#include "scene/scene.h"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <unordered_map>
+
+namespace raylife {
+
+namespace {
+
+// ordered_json keeps the file's order, so material indices and messages follow the file.
+using Json = nlohmann::ordered_json;
+
+/// Largest scene file loadScene reads, in bytes (64 MiB): far beyond any real scene, small enough to hold.
+constexpr std::size_t kMaxSceneBytes = std::size_t(64) << 20;
+
+// The value of a JSON string literal `quoted` (with its quotes), escapes resolved; "" if it is malformed.
+std::string decodeString(std::string_view quoted)
+{
+  if (quoted.find('\\') == std::string_view::npos)
+    return std::string(quoted.substr(1, quoted.size() >= 2 ? quoted.size() - 2 : 0));
+  try {
+    return Json::parse(quoted).get<std::string>();
+  } catch (const Json::exception&) {
+    return "";
+  }
+}
+
+// 3 when `text` starts with a UTF-8 byte order mark (which nlohmann/json skips), else 0.
+std::size_t byteOrderMarkLength(std::string_view text) { return text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0; }
+
+// ---- Where in the text a JSON path points, for line:column in messages --------------------------------------
+// nlohmann/json keeps no source positions, so this small scanner walks the (already valid) text to the value
+// a path names. It returns npos if it cannot follow the path; messages then carry the path alone.
+class Locator {
+public:
+  explicit Locator(std::string_view text) : text_(text) {}
+
+  std::size_t find(const std::vector<std::string>& path) const
+  {
+    std::size_t pos = skipSpace(byteOrderMarkLength(text_));
+    for (const std::string& token : path) {
+      if (pos >= text_.size())
+        return npos;
+      if (text_[pos] == '{')
+        pos = member(pos, token);
+      else if (text_[pos] == '[')
+        pos = element(pos, token);
+      else
+        return npos;
+      if (pos == npos)
+        return npos;
+    }
+    return pos;
+  }
+
+  static constexpr std::size_t npos = std::string_view::npos;
+
+private:
+  std::size_t skipSpace(std::size_t pos) const
+  {
+    while (pos < text_.size() && (text_[pos] == ' ' || text_[pos] == '\t' || text_[pos] == '\n' || text_[pos] == '\r'))
+      ++pos;
+    return pos;
+  }
+  std::size_t skipString(std::size_t pos) const // pos at the opening quote; returns one past the closing quote
+  {
+    for (++pos; pos < text_.size(); ++pos) {
+      if (text_[pos] == '\\')
+        ++pos;
+      else if (text_[pos] == '"')
+        return pos + 1;
+    }
+    return npos;
+  }
+  std::size_t skipValue(std::size_t pos) const // returns one past the value
+  {
+    if (pos >= text_.size())
+      return npos;
+    const char c = text_[pos];
+    if (c == '"')
+      return skipString(pos);
+    if (c == '{' || c == '[') {
+      const char close = c == '{' ? '}' : ']';
+      pos = skipSpace(pos + 1);
+      if (pos < text_.size() && text_[pos] == close)
+        return pos + 1;
+      while (pos < text_.size()) {
+        if (c == '{') { // key : value
+          pos = skipString(pos);
+          if (pos == npos)
+            return npos;
+          pos = skipSpace(pos);
+          if (pos >= text_.size() || text_[pos] != ':')
+            return npos;
+          pos = skipSpace(pos + 1);
+        }
+        pos = skipValue(pos);
+        if (pos == npos)
+          return npos;
+        pos = skipSpace(pos);
+        if (pos < text_.size() && text_[pos] == ',') {
+          pos = skipSpace(pos + 1);
+          continue;
+        }
+        return pos < text_.size() && text_[pos] == close ? pos + 1 : npos;
+      }
+      return npos;
+    }
+    // number, true, false, null
+    while (pos < text_.size() && std::string_view(",]} \t\r\n").find(text_[pos]) == std::string_view::npos)
+      ++pos;
+    return pos;
+  }
+  std::size_t member(std::size_t pos, const std::string& key) const
+  {
+    pos = skipSpace(pos + 1);
+    while (pos < text_.size() && text_[pos] == '"') {
+      const std::size_t keyEnd = skipString(pos);
+      if (keyEnd == npos)
+        return npos;
+      const std::string name = decodeString(text_.substr(pos, keyEnd - pos));
+      pos = skipSpace(keyEnd);
+      if (pos >= text_.size() || text_[pos] != ':')
+        return npos;
+      pos = skipSpace(pos + 1);
+      if (name == key)
+        return pos;
+      pos = skipValue(pos);
+      if (pos == npos)
+        return npos;
+      pos = skipSpace(pos);
+      if (pos < text_.size() && text_[pos] == ',')
+        pos = skipSpace(pos + 1);
+    }
+    return npos;
+  }
+  std::size_t element(std::size_t pos, const std::string& token) const
+  {
+    std::size_t index = 0;
+    for (char ch : token) {
+      if (ch < '0' || ch > '9')
+        return npos;
+      index = index * 10 + std::size_t(ch - '0');
+    }
+    pos = skipSpace(pos + 1);
+    for (std::size_t i = 0; i < index; ++i) {
+      pos = skipValue(pos);
+      if (pos == npos)
+        return npos;
+      pos = skipSpace(pos);
+      if (pos >= text_.size() || text_[pos] != ',')
+        return npos;
+      pos = skipSpace(pos + 1);
+    }
+    return pos < text_.size() && text_[pos] != ']' ? pos : npos;
+  }
+
+  std::string_view text_;
+};
+
+// "LINE:COLUMN" of a byte offset; lines and columns count from 1, columns in characters (UTF-8 code points).
+std::string lineColumn(std::string_view text, std::size_t offset)
+{
+  std::size_t line = 1, column = 1;
+  for (std::size_t i = 0; i < offset && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      column = 1;
+    } else if ((static_cast<unsigned char>(text[i]) & 0xC0) != 0x80) { // not a UTF-8 continuation byte
+      ++column;
+    }
+  }
+  return std::to_string(line) + ":" + std::to_string(column);
+}
+
+// `text` cut to at most `max` bytes (at a UTF-8 character boundary), with "..." when it was cut: names taken
+// from the file are quoted in messages, and a message must stay short whatever the file holds.
+std::string shorten(std::string_view text, std::size_t max = 40)
+{
+  if (text.size() <= max)
+    return std::string(text);
+  std::size_t cut = max - 3;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80)
+    --cut;
+  return std::string(text.substr(0, cut)) + "...";
+}
+
+// `text` made safe to print on one line: control characters become \n, \t or \u00XX, and bytes that are not
+// valid UTF-8 become \xXX, so a message never breaks the terminal or the line it stands on.
+std::string printable(std::string_view text)
+{
+  std::string out;
+  char buffer[8];
+  for (std::size_t i = 0; i < text.size();) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c == 0x7f) {
+      if (c == '\n')
+        out += "\\n";
+      else if (c == '\t')
+        out += "\\t";
+      else {
+        std::snprintf(buffer, sizeof buffer, "\\u%04x", unsigned(c));
+        out += buffer;
+      }
+      ++i;
+      continue;
+    }
+    // The length of the UTF-8 sequence c starts, and whether it is well formed (no overlongs or surrogates).
+    std::size_t n = c < 0x80 ? 1 : (c >= 0xC2 && c <= 0xDF) ? 2 : (c >= 0xE0 && c <= 0xEF) ? 3 : (c >= 0xF0 && c <= 0xF4) ? 4 : 0;
+    bool ok = n > 0 && i + n <= text.size();
+    for (std::size_t k = 1; ok && k < n; ++k)
+      ok = (static_cast<unsigned char>(text[i + k]) & 0xC0) == 0x80;
+    if (ok && n >= 3) {
+      const auto c1 = static_cast<unsigned char>(text[i + 1]);
+      ok = !(c == 0xE0 && c1 < 0xA0) && !(c == 0xED && c1 >= 0xA0) && !(c == 0xF0 && c1 < 0x90) &&
+           !(c == 0xF4 && c1 >= 0x90);
+    }
+    if (!ok) {
+      std::snprintf(buffer, sizeof buffer, "\\x%02x", unsigned(c));
+      out += buffer;
+      ++i;
+      continue;
+    }
+    out.append(text.substr(i, n));
+    i += n;
+  }
+  return out;
+}
+
+std::size_t editDistance(std::string_view a, std::string_view b)
+{
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j)
+    row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+// " (did you mean 'x'?)" for the nearest candidate within a small edit distance, else "".
+std::string suggestion(std::string_view word, const std::vector<std::string>& candidates)
+{
+  std::string best;
+  constexpr std::size_t kLongest = 64; // no name is that long: beyond it, a suggestion would only cost time
+  if (word.size() > kLongest)
+    return "";
+  std::size_t bestDistance = std::max<std::size_t>(2, word.size() / 3) + 1;
+  for (const std::string& c : candidates) {
+    if (c.size() > kLongest)
+      continue;
+    const std::size_t d = editDistance(word, c);
+    if (d < bestDistance) {
+      bestDistance = d;
+      best = c;
+    }
+  }
+  return best.empty() ? "" : " (did you mean '" + shorten(best) + "'?)";
+}
+
+// 'a', 'b', 'c': at most the first 12 words, each shortened.
+std::string joinQuoted(const std::vector<std::string>& words)
+{
+  constexpr std::size_t kMaxWords = 12;
+  std::string out;
+  for (std::size_t i = 0; i < words.size() && i < kMaxWords; ++i)
+    out += (i ? ", '" : "'") + shorten(words[i]) + "'";
+  if (words.size() > kMaxWords)
+    out += " and " + std::to_string(words.size() - kMaxWords) + " more";
+  return out;
+}
+
+// ---- What nlohmann/json accepts but a scene file must not contain -----------------------------------------
+// A fault found by scanning the text itself: where it is (byte offset), the JSON path to it, and what is wrong.
+struct TextFault {
+  std::size_t offset;
+  std::string path;
+  std::string message;
+};
+
+/// Deepest nesting of objects and arrays a scene file may have. The format needs 4 ({"materials": {"x":
+/// {"color": [...]}}}); the limit keeps every recursive walk of the value (dump(), the Locator) shallow.
+constexpr std::size_t kMaxNesting = 32;
+
+// Walks the text of a JSON document iteratively and finds what nlohmann/json lets pass: nesting deeper than
+// kMaxNesting, a key given twice in one object (nlohmann keeps the last silently), a number too large for a
+// double (which nlohmann reports without a position). On text that is not valid JSON it stops at the first
+// thing it does not understand and reports nothing.
+std::optional<TextFault> scanText(std::string_view text)
+{
+  struct Frame {
+    bool object;                                  // an object (else an array)
+    std::string token;                            // the current key, or the current index as text
+    std::size_t index = 0;                        // the current index (arrays)
+    std::unordered_map<std::string, std::size_t> keys; // keys seen so far, with their offsets
+  };
+  std::vector<Frame> stack;
+  auto path = [&](const std::string* last) {
+    std::string p;
+    for (const Frame& f : stack)
+      if (!f.token.empty() || !f.object) {
+        p += '/';
+        p += shorten(f.token);
+      }
+    if (last) {
+      p += '/';
+      p += shorten(*last);
+    }
+    return p.empty() ? std::string("/") : p;
+  };
+  bool expectKey = false;
+  for (std::size_t pos = byteOrderMarkLength(text); pos < text.size();) {
+    const char c = text[pos];
+    if (c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == ':') {
+      ++pos;
+    } else if (c == '{' || c == '[') {
+      if (stack.size() >= kMaxNesting)
+        return TextFault{pos, path(nullptr), "objects and arrays nested deeper than " + std::to_string(kMaxNesting) +
+                                                 " levels (a scene needs at most 4)"};
+      stack.push_back(Frame{c == '{', c == '[' ? "0" : "", 0, {}});
+      expectKey = c == '{';
+      ++pos;
+    } else if (c == '}' || c == ']') {
+      if (stack.empty())
+        return std::nullopt;
+      stack.pop_back();
+      expectKey = false;
+      ++pos;
+    } else if (c == ',') {
+      if (stack.empty())
+        return std::nullopt;
+      Frame& top = stack.back();
+      if (top.object) {
+        expectKey = true;
+      } else {
+        ++top.index;
+        top.token = std::to_string(top.index);
+      }
+      ++pos;
+    } else if (c == '"') {
+      std::size_t end = pos + 1;
+      while (end < text.size() && text[end] != '"')
+        end += text[end] == '\\' ? 2 : 1;
+      if (end >= text.size())
+        return std::nullopt;
+      ++end;
+      if (expectKey && !stack.empty()) {
+        Frame& top = stack.back();
+        std::string key = decodeString(text.substr(pos, end - pos));
+        if (const auto seen = top.keys.find(key); seen != top.keys.end()) {
+          top.token.clear();
+          return TextFault{pos, path(&key), "the key '" + shorten(key) + "' is given twice in one object (first at " +
+                                                lineColumn(text, seen->second) + "); give each key once"};
+        }
+        top.keys.emplace(key, pos);
+        top.token = std::move(key);
+        expectKey = false;
+      }
+      pos = end;
+    } else {
+      // A number or a literal: check that a number fits in a double.
+      std::size_t end = pos;
+      while (end < text.size() && std::string_view(",]} \t\r\n:").find(text[end]) == std::string_view::npos)
+        ++end;
+      const std::string token(text.substr(pos, end - pos));
+      if (c == '-' || (c >= '0' && c <= '9')) {
+        const double v = std::strtod(token.c_str(), nullptr);
+        if (!std::isfinite(v))
+          return TextFault{pos, path(nullptr), "the number " + shorten(token) + " is too large for a double"};
+      }
+      if (end == pos)
+        return std::nullopt;
+      pos = end;
+    }
+  }
+  return std::nullopt;
+}
+
+// ---- Reading checked values -------------------------------------------------------------------------------
+class Reader {
+public:
+  Reader(std::string_view text, const std::string& file) : text_(text), file_(file) {}
+
+  // A JSON path: the tokens and their "/a/0/b" spelling.
+  struct Path {
+    std::vector<std::string> tokens;
+    Path operator/(const std::string& token) const
+    {
+      Path p = *this;
+      p.tokens.push_back(token);
+      return p;
+    }
+    Path operator/(std::size_t index) const { return *this / std::to_string(index); }
+    std::string str() const
+    {
+      std::string s;
+      for (const std::string& t : tokens) {
+        s += '/'; // (appended in two steps: "/" + shorten(t) trips a false -Wrestrict in GCC 12)
+        s += shorten(t);
+      }
+      return s.empty() ? "/" : s;
+    }
+  };
+
+  // "FILE:LINE:COLUMN: /json/path" of a value, or of its nearest enclosing value that is in the text (the
+  // parent of a missing key, say).
+  std::string where(const Path& path) const
+  {
+    std::vector<std::string> tokens = path.tokens;
+    std::size_t offset = Locator::npos;
+    while (true) {
+      offset = Locator(text_).find(tokens);
+      if (offset != Locator::npos || tokens.empty())
+        break;
+      tokens.pop_back();
+    }
+    const std::string place = offset != Locator::npos ? lineColumn(text_, offset) + ": " : "";
+    return file_ + ":" + place + path.str();
+  }
+
+  [[noreturn]] void fail(const Path& path, const std::string& message) const
+  {
+    throw SceneError(printable(where(path) + ": " + message));
+  }
+
+  const Json& object(const Json& j, const Path& path) const
+  {
+    if (!j.is_object())
+      fail(path, "expected an object { ... }, got " + describe(j));
+    return j;
+  }
+
+  // Every key of `j` must be one of `known`; the first unknown one is an error with a suggestion.
+  void onlyKeys(const Json& j, const Path& path, const std::vector<std::string>& known) const
+  {
+    for (auto it = j.begin(); it != j.end(); ++it)
+      if (std::find(known.begin(), known.end(), it.key()) == known.end())
+        fail(path / it.key(), "unknown key '" + shorten(it.key()) + "'" + suggestion(it.key(), known) +
+                                  "; known keys here: " + joinQuoted(known));
+  }
+
+  const Json& required(const Json& j, const Path& path, const std::string& key) const
+  {
+    auto it = j.find(key);
+    if (it == j.end())
+      fail(path / key, "missing key '" + key + "'");
+    return *it;
+  }
+
+  Real number(const Json& j, const Path& path) const
+  {
+    if (!j.is_number())
+      fail(path, "expected a number, got " + describe(j));
+    const double v = j.get<double>();
+    if (!std::isfinite(v) || !std::isfinite(Real(v)))
+      fail(path, "the number is not finite in " + std::string(sizeof(Real) == 4 ? "float" : "double"));
+    return Real(v);
+  }
+
+  int wholeNumber(const Json& j, const Path& path, std::int64_t lo, std::int64_t hi) const
+  {
+    if (j.is_number_float()) {
+      // A whole number beyond 64 bits arrives as a double: say it is out of range rather than not whole.
+      const double v = j.get<double>();
+      if (std::isfinite(v) && v == std::floor(v))
+        fail(path, v > 0 ? "must be at most " + std::to_string(hi) + ", got " + j.dump()
+                         : "must be at least " + std::to_string(lo) + ", got " + j.dump());
+    }
+    if (!j.is_number_integer())
+      fail(path, "expected a whole number, got " + describe(j));
+    // nlohmann stores every non-negative whole number as unsigned: compare without converting a huge one to int64.
+    if (j.is_number_unsigned() ? j.get<std::uint64_t>() > std::uint64_t(hi) : j.get<std::int64_t>() > hi)
+      fail(path, "must be at most " + std::to_string(hi) + ", got " + j.dump());
+    const std::int64_t value = j.is_number_unsigned() ? std::int64_t(j.get<std::uint64_t>()) : j.get<std::int64_t>();
+    if (value < lo)
+      fail(path, "must be at least " + std::to_string(lo) + ", got " + j.dump());
+    return int(value);
+  }
+
+  Vec3 vec3(const Json& j, const Path& path) const
+  {
+    if (!j.is_array() || j.size() != 3)
+      fail(path, "expected an array of 3 numbers [x, y, z], got " + describe(j));
+    return Vec3(number(j[0], path / 0), number(j[1], path / 1), number(j[2], path / 2));
+  }
+
+  // A colour with every channel in [0, maxChannel].
+  Color color(const Json& j, const Path& path, Real maxChannel, const char* what) const
+  {
+    if (!j.is_array() || j.size() != 3)
+      fail(path, std::string("expected ") + what + " as an array of 3 numbers [r, g, b], got " + describe(j));
+    Color c;
+    for (int i = 0; i < 3; ++i) {
+      c[i] = number(j[std::size_t(i)], path / std::size_t(i));
+      if (c[i] < 0)
+        fail(path / std::size_t(i), std::string(what) + " must not be negative, got " + j[std::size_t(i)].dump());
+      if (c[i] > maxChannel)
+        fail(path / std::size_t(i), std::string(what) + " must be at most 1 (a surface cannot reflect more light "
+                                                         "than reaches it), got " + j[std::size_t(i)].dump());
+    }
+    return c;
+  }
+
+  std::string string(const Json& j, const Path& path) const
+  {
+    if (!j.is_string())
+      fail(path, "expected a string, got " + describe(j));
+    return j.get<std::string>();
+  }
+
+  static std::string describe(const Json& j)
+  {
+    std::string text = j.dump();
+    if (text.size() > 40)
+      text = text.substr(0, 37) + "...";
+    return std::string(j.type_name()) + " " + text;
+  }
+
+private:
+  std::string_view text_;
+  const std::string& file_;
+};
+
+using Path = Reader::Path;
+
+void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& cam)
+{
+  r.object(j, path);
+  r.onlyKeys(j, path, {"eye", "focal", "up", "vfov", "width", "height"});
+  cam.eye = r.vec3(r.required(j, path, "eye"), path / "eye");
+  cam.focal = r.vec3(r.required(j, path, "focal"), path / "focal");
+  if (j.contains("up"))
+    cam.up = r.vec3(j["up"], path / "up");
+  if (j.contains("vfov")) {
+    cam.vfovDeg = r.number(j["vfov"], path / "vfov");
+    if (!(cam.vfovDeg > 0 && cam.vfovDeg < 180))
+      r.fail(path / "vfov", "the field of view must lie strictly between 0 and 180 degrees, got " + j["vfov"].dump());
+  }
+  if (j.contains("width"))
+    cam.width = r.wholeNumber(j["width"], path / "width", 1, kMaxPixels);
+  if (j.contains("height"))
+    cam.height = r.wholeNumber(j["height"], path / "height", 1, kMaxPixels);
+  if (std::int64_t(cam.width) * cam.height > kMaxPixels)
+    r.fail(path / "width", "an image of " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
+                               " pixels is larger than the " + std::to_string(kMaxPixels) + " pixels raylife allows");
+  auto basis = makeCameraBasis(cam.eye, cam.focal, cam.up);
+  if (auto* error = std::get_if<BasisError>(&basis))
+    r.fail(path / (cam.eye == cam.focal ? "focal" : "up"), error->message); // blame the vector at fault
+  cam.basis = std::get<CameraBasis>(basis);
+}
+
+Material readMaterial(const Reader& r, const Json& j, const Path& path, const std::string& name)
+{
+  r.object(j, path);
+  Material m;
+  m.name = name;
+  const std::string type = r.string(r.required(j, path, "type"), path / "type");
+  const std::vector<std::string> types = {"diffuse", "mirror", "glass", "glossy"};
+  if (type == "diffuse")
+    m.type = MaterialType::Diffuse;
+  else if (type == "mirror")
+    m.type = MaterialType::Mirror;
+  else if (type == "glass")
+    m.type = MaterialType::Glass;
+  else if (type == "glossy")
+    m.type = MaterialType::Glossy;
+  else
+    r.fail(path / "type", "unknown material type '" + shorten(type) + "'" + suggestion(type, types) + "; known types: " +
+                              joinQuoted(types));
+
+  // Each type takes only the keys that mean something for it, so a misplaced key is caught, not ignored.
+  std::vector<std::string> keys = {"type", "color", "emission"};
+  if (m.type == MaterialType::Glass)
+    keys.push_back("ior");
+  if (m.type == MaterialType::Glossy)
+    keys.push_back("roughness");
+  for (const char* special : {"ior", "roughness"})
+    if (j.contains(special) && std::find(keys.begin(), keys.end(), special) == keys.end())
+      r.fail(path / special, std::string("'") + special + "' does not apply to a " + type + " material (only to " +
+                                 (std::string(special) == "ior" ? "glass" : "glossy") + ")");
+  r.onlyKeys(j, path, keys);
+
+  if (j.contains("color"))
+    m.color = r.color(j["color"], path / "color", 1, "a colour");
+  if (j.contains("emission"))
+    m.emission = r.color(j["emission"], path / "emission", kInfinity, "emission");
+  if (j.contains("ior")) {
+    m.ior = r.number(j["ior"], path / "ior");
+    if (m.ior < 1)
+      r.fail(path / "ior", "the index of refraction must be at least 1, got " + j["ior"].dump());
+  }
+  if (j.contains("roughness")) {
+    m.roughness = r.number(j["roughness"], path / "roughness");
+    if (!(m.roughness > 0 && m.roughness <= 1))
+      r.fail(path / "roughness", "roughness must lie in (0, 1], got " + j["roughness"].dump());
+  }
+  return m;
+}
+
+} // namespace
+
+namespace {
+// parseScene without the accelerator. The callers build it once the JSON tree is gone (and loadScene once the text is
+// too): with 100,000 spheres the two take about 28 MB, more than the scene and its tree, and the tree's build has
+// its own scratch on top.
+Scene readScene(std::string_view text, const std::string& fileName)
+{
+  auto failAt = [&](std::size_t offset, const std::string& what) {
+    throw SceneError(printable(fileName + ":" + lineColumn(text, offset) + ": " + what));
+  };
+  // Faults of the text itself first: a NUL byte (nlohmann/json would take it as the end), an empty file.
+  if (const std::size_t nul = text.find('\0'); nul != std::string_view::npos)
+    failAt(nul, "the file contains a NUL byte: a scene file is JSON text");
+  if (text.find_first_not_of(" \t\r\n") == std::string_view::npos)
+    failAt(text.size(), "the file is empty: expected a JSON object such as {\"camera\": {...}, \"spheres\": [...]}");
+
+  Json root;
+  try {
+    root = Json::parse(text.begin(), text.end());
+  } catch (const Json::parse_error& e) {
+    // e.byte is one past the offending character (1-based); report the line and column of that character, or
+    // of the start of the offending string when it is a string (nlohmann stops at its closing quote).
+    std::size_t offset = std::min(e.byte > 0 ? e.byte - 1 : 0, text.size());
+    if (offset < text.size() && offset > 0 && text[offset] == '"' &&
+        std::string_view(e.what()).find("unexpected string literal") != std::string_view::npos) {
+      std::size_t open = offset - 1;
+      auto escaped = [&](std::size_t at) { // preceded by an odd number of backslashes
+        std::size_t n = 0;
+        while (at > n && text[at - n - 1] == '\\')
+          ++n;
+        return n % 2 == 1;
+      };
+      while (open > 0 && !(text[open] == '"' && !escaped(open)))
+        --open;
+      offset = open;
+    }
+    std::string what = e.what();
+    // nlohmann's message reads "[json.exception.parse_error.101] parse error at line 3, column 5: <detail>".
+    const std::size_t colon = what.find(": ");
+    std::string detail = colon != std::string::npos ? what.substr(colon + 2) : what;
+    // "...; last read: '<the token so far>'; expected ...": the token may be the rest of the file; shorten it.
+    // The token may itself hold "'; expected": the real clause is the last one, and short ("'; expected '}'").
+    if (const std::size_t read = detail.find("last read: '"); read != std::string::npos) {
+      const std::size_t start = read + 12;
+      std::size_t end = detail.rfind("'; expected ");
+      if (end == std::string::npos || end < start || detail.size() - end > 40)
+        end = detail.size() - 1;
+      if (end > start)
+        detail.replace(start, end - start, shorten(std::string_view(detail).substr(start, end - start)));
+    }
+    failAt(offset, "malformed JSON: " + shorten(detail, 400)); // (and never a page long, whatever nlohmann says)
+  } catch (const Json::exception& e) {
+    // A number too large for a double (out_of_range.406) comes without a position: find it in the text.
+    if (const std::optional<TextFault> fault = scanText(text))
+      failAt(fault->offset, fault->path + ": " + fault->message);
+    throw SceneError(printable(fileName + ": malformed JSON: " + e.what()));
+  }
+  // What nlohmann/json accepts but a scene must not have: deep nesting, a key given twice, numbers out of range.
+  if (const std::optional<TextFault> fault = scanText(text))
+    failAt(fault->offset, fault->path + ": " + fault->message);
+
+  const Reader r(text, fileName);
+  const Path top;
+  Scene scene;
+  scene.fileName = fileName;
+  r.object(root, top);
+  r.onlyKeys(root, top, {"camera", "background", "ambient", "materials", "spheres", "lights"});
+
+  readCamera(r, r.required(root, top, "camera"), top / "camera", scene.camera);
+  if (root.contains("background"))
+    scene.background = r.color(root["background"], top / "background", kInfinity, "background radiance");
+  if (root.contains("ambient"))
+    scene.ambient = r.color(root["ambient"], top / "ambient", kInfinity, "ambient radiance");
+
+  // Materials: an object of name → material; order of the names gives the indices.
+  std::vector<std::string> materialNames;
+  if (root.contains("materials")) {
+    const Json& mats = r.object(root["materials"], top / "materials");
+    for (auto it = mats.begin(); it != mats.end(); ++it) {
+      scene.materials.push_back(readMaterial(r, it.value(), top / "materials" / it.key(), it.key()));
+      materialNames.push_back(it.key());
+    }
+  }
+
+  // Spheres.
+  const Json& spheres = r.required(root, top, "spheres");
+  if (!spheres.is_array())
+    r.fail(top / "spheres", "expected an array of spheres, got " + Reader::describe(spheres));
+  if (spheres.empty())
+    r.fail(top / "spheres", "the scene is empty: give at least one sphere");
+  std::unordered_map<std::string, int> materialIndex; // name -> index, so a large scene loads in linear time
+  for (std::size_t i = 0; i < materialNames.size(); ++i)
+    materialIndex.emplace(materialNames[i], int(i));
+  std::vector<bool> used(materialNames.size(), false);
+  for (std::size_t i = 0; i < spheres.size(); ++i) {
+    const Path p = top / "spheres" / i;
+    const Json& js = r.object(spheres[i], p);
+    r.onlyKeys(js, p, {"center", "radius", "material"});
+    Sphere s;
+    s.center = r.vec3(r.required(js, p, "center"), p / "center");
+    s.radius = r.number(r.required(js, p, "radius"), p / "radius");
+    if (!(s.radius > 0))
+      r.fail(p / "radius", "the radius must be greater than 0, got " + js["radius"].dump());
+    const std::string name = r.string(r.required(js, p, "material"), p / "material");
+    const auto found = materialIndex.find(name);
+    if (found == materialIndex.end())
+      r.fail(p / "material", "undefined material '" + shorten(name) + "'" + suggestion(name, materialNames) +
+                                 (materialNames.empty() ? "; the scene defines no materials"
+                                                        : "; defined: " + joinQuoted(materialNames)));
+    s.material = found->second;
+    used[std::size_t(s.material)] = true;
+    scene.spheres.push_back(s);
+  }
+
+  // Lights.
+  if (root.contains("lights")) {
+    const Json& lights = root["lights"];
+    if (!lights.is_array())
+      r.fail(top / "lights", "expected an array of lights, got " + Reader::describe(lights));
+    for (std::size_t i = 0; i < lights.size(); ++i) {
+      const Path p = top / "lights" / i;
+      const Json& jl = r.object(lights[i], p);
+      r.onlyKeys(jl, p, {"type", "position", "intensity"});
+      const std::string type = r.string(r.required(jl, p, "type"), p / "type");
+      if (type != "point")
+        r.fail(p / "type", "unknown light type '" + shorten(type) + "'; known types: 'point' (for area lights, give a "
+                                                            "sphere a material with \"emission\")");
+      PointLight l;
+      l.position = r.vec3(r.required(jl, p, "position"), p / "position");
+      l.intensity = r.color(r.required(jl, p, "intensity"), p / "intensity", kInfinity, "intensity");
+      scene.lights.push_back(l);
+    }
+  }
+
+  // An unused material is only a warning: one per material for the first few, then one line for the rest.
+  constexpr std::size_t kMaxUnusedWarnings = 5;
+  std::size_t unused = 0;
+  for (std::size_t i = 0; i < materialNames.size(); ++i)
+    if (!used[i] && ++unused <= kMaxUnusedWarnings)
+      scene.warnings.push_back(printable(r.where(top / "materials" / materialNames[i]) + ": material '" +
+                                         shorten(materialNames[i]) + "' is defined but no sphere uses it"));
+  if (unused > kMaxUnusedWarnings)
+    scene.warnings.push_back(printable(fileName + ": /materials: " + std::to_string(unused - kMaxUnusedWarnings) +
+                                       " more materials are defined but no sphere uses them"));
+  return scene;
+}
+} // namespace
+
+Scene parseScene(std::string_view text, const std::string& fileName)
+{
+  Scene scene = readScene(text, fileName);
+  scene.buildAccelerator();
+  return scene;
+}
+
+Scene loadScene(const std::string& path)
+{
+  // Say plainly what is wrong with a path that is not a readable file, before JSON has a chance to.
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (fs::is_directory(status))
+    throw SceneError(printable(path + ": is a folder, not a scene file"));
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw SceneError(printable(path + ": cannot open the scene file: " + std::strerror(errno)));
+  // Read at most kMaxSceneBytes (+1 to notice a larger file): /dev/zero or a runaway file cannot exhaust memory.
+  std::string text;
+  char buffer[65536];
+  while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {
+    text.append(buffer, std::size_t(in.gcount()));
+    if (text.size() > kMaxSceneBytes)
+      throw SceneError(printable(path + ": the scene file is larger than " + std::to_string(kMaxSceneBytes >> 20) +
+                                 " MiB; a scene file is a small JSON text"));
+  }
+  if (in.bad())
+    throw SceneError(printable(path + ": cannot read the scene file: " + std::strerror(errno)));
+  Scene scene = readScene(text, path);
+  std::string().swap(text); // the text's memory back before the tree's build needs its own
+  scene.buildAccelerator();
+  return scene;
+}
+
+} // namespace raylife

@@ -1,0 +1,48 @@
+#include "scene/scene_plan.h"
+
+namespace raylife {
+
+ScenePlan planScene(const Scene& scene, unsigned uses)
+{
+  ScenePlan plan;
+  plan.spheres = scene.spheres.size();
+  plan.bvh = scene.usesAccelerator();
+  plan.lanes = scene.usesLanes();
+  if (uses & kUsesPointLights)
+    plan.pointLights = scene.lights.size();
+  for (const Sphere& s : scene.spheres) {
+    const Material& m = scene.materials[std::size_t(s.material)];
+    plan.emitters += (uses & kUsesEmission) && m.isEmissive();
+    plan.glass = plan.glass || ((uses & kUsesGlass) && m.type == MaterialType::Glass);
+  }
+  plan.backgroundBlack = !(uses & kUsesBackground) || scene.background == Color(0);
+  return plan;
+}
+
+std::vector<std::string> describePlan(const ScenePlan& plan)
+{
+  auto count = [](std::size_t n, const char* one, const char* many) {
+    return std::to_string(n) + " " + (n == 1 ? one : many);
+  };
+  const std::string bvhFrom = std::to_string(kFlatListMaxSpheres + 1);
+  std::vector<std::string> lines;
+  lines.push_back("plan: " + count(plan.spheres, "sphere", "spheres") +
+                  (plan.bvh ? " -> BVH (flat list up to " + std::to_string(kFlatListMaxSpheres) + ")"
+                            : std::string(" -> flat list") + (plan.lanes ? ", four spheres at a time" : "") +
+                                  " (BVH from " + bvhFrom + ")"));
+  const std::string lights =
+      count(plan.emitters, "emitter", "emitters") + ", " + count(plan.pointLights, "point light", "point lights");
+  lines.push_back("plan: " + lights +
+                  (plan.lightSampling()
+                       ? " -> light sampling of " + count(plan.emitters + plan.pointLights, "light", "lights")
+                       : " -> no light sampling (BSDF sampling only)"));
+  lines.push_back(plan.shadowRays() ? "plan: " + count(plan.pointLights, "point light", "point lights") +
+                                          " -> shadow rays"
+                                    : "plan: no point lights -> no shadow rays to point lights");
+  lines.push_back(plan.glass ? "plan: glass -> refraction" : "plan: no glass -> no refraction");
+  lines.push_back(plan.backgroundBlack ? "plan: background black -> no environment lookups"
+                                       : "plan: background not black -> environment lookups on escape");
+  return lines;
+}
+
+} // namespace raylife

@@ -1,0 +1,52 @@
+/// @file scene_plan.h
+/// @brief The plan of a render: what a scene holds, decided once before rendering, and so what a chapter may skip
+/// (issue 7: "skip what the scene does not need").
+#pragma once
+
+#include "scene/scene.h"
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace raylife {
+
+/// What of a scene a chapter reads, so the runner can say once what it ignores.
+enum Feature : unsigned {
+  kUsesSpheres = 1u << 0,       ///< Intersects the spheres.
+  kUsesColors = 1u << 1,        ///< Reads material colours.
+  kUsesPointLights = 1u << 2,   ///< Reads point lights.
+  kUsesAmbient = 1u << 3,       ///< Reads the ambient term.
+  kUsesBackground = 1u << 4,    ///< Returns the background on a miss.
+  kUsesEmission = 1u << 5,      ///< Reads material emission.
+  kUsesMirror = 1u << 6,        ///< Treats mirror materials as mirrors.
+  kUsesGlass = 1u << 7,         ///< Treats glass materials as glass.
+  kUsesGlossy = 1u << 8,        ///< Treats glossy materials as glossy.
+  kUsesMaxDepth = 1u << 9,      ///< Honours --max-depth.
+};
+
+/// What a scene needs, computed once from the scene and a chapter's feature flags (Feature, above).
+/// Every field is a plain fact of the scene; the "skip" fields say what a chapter that reads `uses` may leave out
+/// without changing its expected value.
+struct ScenePlan {
+  std::size_t spheres = 0;      ///< Spheres in the scene.
+  bool bvh = false;             ///< True: queries go through the BVH; false: a flat loop (≤ kFlatListMaxSpheres).
+  bool lanes = false;           ///< The flat loop tests four spheres at once (Scene::usesLanes; CPUs with AVX2).
+  std::size_t pointLights = 0;  ///< Point lights in the scene (counted only if the chapter reads them).
+  std::size_t emitters = 0;     ///< Spheres with an emissive material (counted only if the chapter reads emission).
+  bool glass = false;           ///< Some sphere is glass and the chapter treats glass as glass.
+  bool backgroundBlack = true;  ///< The background is black, or the chapter does not read it.
+  /// Light sampling has something to sample: at least one emitter or point light. Without it chapters 7 and 8
+  /// do BSDF sampling only (a light sampler with no light returns nothing, so this is exact).
+  bool lightSampling() const { return emitters + pointLights > 0; }
+  /// Shadow rays have a light to go to (chapters 3 to 5: only point lights cast shadow rays).
+  bool shadowRays() const { return pointLights > 0; }
+};
+
+/// The plan for `scene` as a chapter reading `uses` (Feature flags) renders it.
+ScenePlan planScene(const Scene& scene, unsigned uses);
+
+/// The plan as lines of text, one per decision, e.g. "plan: 9 spheres -> flat list (BVH from 10)".
+std::vector<std::string> describePlan(const ScenePlan& plan);
+
+} // namespace raylife

@@ -1,0 +1,192 @@
+#include "shading/bsdf.h"
+
+#include "core/frame.h"
+#include "core/sampling.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace raylife {
+
+namespace {
+
+// The mirror direction of a local direction about the local normal (0, 0, 1).
+Vec3 reflectLocal(const Vec3& w) { return Vec3(-w.x, -w.y, w.z); }
+
+bool sameSide(const Vec3& wo, const Vec3& wi) { return wo.z * wi.z > 0; }
+
+} // namespace
+
+// [refract]
+namespace {
+// cos²θt = 1 − sin²θi/η², written as ((η − 1)(η + 1) + cos²θi)/η² so that nothing cancels: the textbook
+// 1 − (1 − cos²θi)/η² loses the small cos²θi of a grazing ray (and with η = 1 bends a ray it must not bend).
+// ≤ 0 means total internal reflection. cosI ≥ 0, eta > 0 (transmitted over incident index).
+Real cosTransmittedSquared(Real cosI, Real eta)
+{
+  return ((eta - 1) * (eta + 1) + cosI * cosI) / (eta * eta);
+}
+} // namespace
+
+std::optional<Vec3> refract(const Vec3& wo, const Vec3& n, Real eta)
+{
+  // Which side: from outside the ray enters (η = η_t/η_i = eta); from inside it leaves (1/eta, normal flipped).
+  Real cosI = glm::dot(wo, n);
+  Vec3 nFacing = n;
+  if (cosI < 0) {
+    eta = 1 / eta;
+    cosI = -cosI;
+    nFacing = -n;
+  }
+  // Snell's law: sin²θt = sin²θi / η²; past 1 there is no refracted ray (total internal reflection).
+  const Real cos2T = cosTransmittedSquared(cosI, eta);
+  if (cos2T <= 0)
+    return std::nullopt;
+  const Real cosT = std::sqrt(cos2T);
+  // The tangential part shrinks by 1/η, the normal part makes the result unit and points through the surface.
+  return glm::normalize(-wo / eta + (cosI / eta - cosT) * nFacing);
+}
+// [refract]
+
+// [fresnel]
+Real fresnelDielectric(Real cosThetaO, Real eta)
+{
+  Real cosI = std::clamp(cosThetaO, Real(-1), Real(1));
+  if (cosI < 0) { // inside: the light crosses from the sphere's medium to the outside one
+    eta = 1 / eta;
+    cosI = -cosI;
+  }
+  // Snell's law for the refracted angle; total internal reflection reflects everything.
+  const Real cos2T = cosTransmittedSquared(cosI, eta);
+  if (cos2T <= 0)
+    return 1;
+  const Real cosT = std::sqrt(cos2T);
+  // The Fresnel equations for parallel and perpendicular polarisation (η = η_t/η_i), averaged.
+  const Real rParallel = (eta * cosI - cosT) / (eta * cosI + cosT);
+  const Real rPerpendicular = (cosI - eta * cosT) / (cosI + eta * cosT);
+  return (rParallel * rParallel + rPerpendicular * rPerpendicular) / 2;
+}
+// [fresnel]
+
+// [lambertian]
+Color lambertianEval(const Color& albedo, const Vec3& wo, const Vec3& wi)
+{
+  return sameSide(wo, wi) ? albedo * kInvPi : Color(0);
+}
+
+Real lambertianPdf(const Vec3& wo, const Vec3& wi) { return sameSide(wo, wi) ? std::abs(wi.z) * kInvPi : 0; }
+
+std::optional<BsdfSample> lambertianSample(const Color& albedo, const Vec3& wo, Vec2 u)
+{
+  if (wo.z == 0)
+    return std::nullopt;
+  // Cosine-weighted on wo's side: the weight (ρ/π)·cosθ / (cosθ/π) is exactly ρ.
+  Vec3 wi = sampleCosineHemisphere(u);
+  if (wo.z < 0)
+    wi.z = -wi.z;
+  const Real pdf = lambertianPdf(wo, wi);
+  if (!(pdf > 0)) // wi exactly tangent: a direction of zero density
+    return std::nullopt;
+  return BsdfSample{wi, albedo * kInvPi, pdf, false};
+}
+// [lambertian]
+
+// [mirror]
+std::optional<BsdfSample> mirrorSample(const Color& tint, const Vec3& wo)
+{
+  if (wo.z == 0)
+    return std::nullopt;
+  const Vec3 wi = reflectLocal(wo);
+  return BsdfSample{wi, tint / std::abs(wi.z), 1, true};
+}
+// [mirror]
+
+// [dielectric]
+std::optional<BsdfSample> dielectricSample(const Color& tint, Real eta, const Vec3& wo, Real uChoice)
+{
+  if (wo.z == 0)
+    return std::nullopt;
+  // Choose reflection with probability F: the weight F/F (or T/T) of the chosen lobe is then 1, times the tint.
+  const Real F = fresnelDielectric(wo.z, eta);
+  if (uChoice < F) {
+    const Vec3 wi = reflectLocal(wo);
+    return BsdfSample{wi, tint * F / std::abs(wi.z), F, true};
+  }
+  const std::optional<Vec3> wi = refract(wo, Vec3(0, 0, 1), eta);
+  if (!wi || wi->z == 0) // cannot happen when F < 1, but never divide by a zero cosine
+    return std::nullopt;
+  return BsdfSample{*wi, tint * (1 - F) / std::abs(wi->z), 1 - F, true};
+}
+// [dielectric]
+
+// [phong]
+Real phongExponent(Real roughness) { return 2 / (roughness * roughness) - 2; }
+
+Color phongEval(const Color& albedo, Real exponent, const Vec3& wo, const Vec3& wi)
+{
+  if (!sameSide(wo, wi))
+    return Color(0);
+  const Real cosAlpha = glm::dot(wi, reflectLocal(wo));
+  if (cosAlpha <= 0)
+    return Color(0);
+  return albedo * ((exponent + 2) / (2 * kPi) * std::pow(cosAlpha, exponent));
+}
+
+Real phongPdf(Real exponent, const Vec3& wo, const Vec3& wi)
+{
+  if (!sameSide(wo, wi))
+    return 0;
+  return phongLobePdf(glm::dot(wi, reflectLocal(wo)), exponent);
+}
+
+std::optional<BsdfSample> phongSample(const Color& albedo, Real exponent, const Vec3& wo, Vec2 u)
+{
+  if (wo.z == 0)
+    return std::nullopt;
+  // Sample the lobe around the mirror direction r, in r's own frame, then rotate it into the shading frame.
+  const Vec3 r = reflectLocal(wo);
+  const Vec3 wi = glm::normalize(Frame::fromNormal(r).toWorld(samplePhongLobe(u, exponent)));
+  // Below the surface: no light (the pdf keeps its mass there, so the estimator stays unbiased).
+  const Real pdf = phongPdf(exponent, wo, wi);
+  if (!(pdf > 0))
+    return std::nullopt;
+  return BsdfSample{wi, phongEval(albedo, exponent, wo, wi), pdf, false};
+}
+// [phong]
+
+Color bsdfEval(const Material& m, const Vec3& wo, const Vec3& wi)
+{
+  switch (m.type) {
+  case MaterialType::Diffuse: return lambertianEval(m.color, wo, wi);
+  case MaterialType::Glossy: return phongEval(m.color, phongExponent(m.roughness), wo, wi);
+  case MaterialType::Mirror:
+  case MaterialType::Glass: return Color(0);
+  }
+  return Color(0);
+}
+
+Real bsdfPdf(const Material& m, const Vec3& wo, const Vec3& wi)
+{
+  switch (m.type) {
+  case MaterialType::Diffuse: return lambertianPdf(wo, wi);
+  case MaterialType::Glossy: return phongPdf(phongExponent(m.roughness), wo, wi);
+  case MaterialType::Mirror:
+  case MaterialType::Glass: return 0;
+  }
+  return 0;
+}
+
+// [bsdfSample]
+std::optional<BsdfSample> bsdfSample(const Material& m, const Vec3& wo, Vec2 u, Real uChoice)
+{
+  switch (m.type) {
+  case MaterialType::Diffuse: return lambertianSample(m.color, wo, u);
+  case MaterialType::Mirror: return mirrorSample(m.color, wo);
+  case MaterialType::Glass: return dielectricSample(m.color, m.ior, wo, uChoice);
+  case MaterialType::Glossy: return phongSample(m.color, phongExponent(m.roughness), wo, u);
+  }
+  return std::nullopt;
+}
+// [bsdfSample]
+
+} // namespace raylife

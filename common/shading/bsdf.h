@@ -1,0 +1,118 @@
+/// @file bsdf.h
+/// @brief Reflection and refraction at a surface: Snell's law, the Fresnel equations, and the BSDFs of the
+/// path tracer, each with its evaluation, its sampling routine and its pdf.
+///
+/// Conventions (as in pbrt). Directions point *away* from the surface: wo towards the viewer (the reversed
+/// ray), wi towards where the light comes from. BSDFs work in the local shading frame (frame.h) built around
+/// the sphere's **outward** normal, so cosθ = w.z, wo.z < 0 means "seen from inside the sphere", and a
+/// dielectric knows from the sign of wo.z which way it is crossing. The opaque BSDFs (Lambertian, mirror,
+/// glossy) reflect on whichever side wo is: a diffuse sphere seen from inside is diffuse inside.
+///
+/// What the estimator needs of a sample is its weight f·|cosθi|/pdf. For the specular lobes (mirror, glass),
+/// which are Dirac deltas, f is stored as the delta's weight divided by |cosθi| and pdf as the discrete
+/// probability of the lobe chosen, so that the same formula gives the right weight (pbrt's convention).
+/// eval and pdf of a delta lobe are 0: no direction chosen any other way can hit it.
+#pragma once
+
+#include "shading/material.h"
+#include "core/math.h"
+
+#include <optional>
+
+namespace raylife {
+
+// ---- Snell's law and the Fresnel equations (world or local space alike) --------------------------------------
+
+// [reflect]
+/// The mirror direction of unit `wo` about unit normal `n` (either side): 2(wo·n)n − wo, unit.
+inline Vec3 reflect(const Vec3& wo, const Vec3& n) { return 2 * glm::dot(wo, n) * n - wo; }
+// [reflect]
+
+/// The direction refracted by Snell's law, η_i sinθ_i = η_t sinθ_t.
+///
+/// @param wo  unit direction away from the surface, on the side the light leaves towards (the viewer's side).
+/// @param n   unit **outward** normal of the surface (the side of the outside medium).
+/// @param eta relative index of refraction η_inside/η_outside, > 0 (a sphere's `ior`).
+/// @return the unit refracted direction on the other side of the surface, or nothing under total internal
+///         reflection (sin²θ_t ≥ 1, possible only when wo is inside and η > 1).
+std::optional<Vec3> refract(const Vec3& wo, const Vec3& n, Real eta);
+
+/// The Fresnel reflectance of a smooth dielectric interface for unpolarised light: the share of light
+/// reflected, the average of the s- and p-polarised reflectances (the rest is transmitted).
+///
+/// @param cosThetaO cosine of the angle between wo and the **outward** normal, in [−1, 1]: > 0 outside,
+///                  < 0 inside the sphere.
+/// @param eta       relative index of refraction η_inside/η_outside, > 0.
+/// @return reflectance in [0, 1]; exactly 1 under total internal reflection.
+Real fresnelDielectric(Real cosThetaO, Real eta);
+
+// ---- BSDF samples ------------------------------------------------------------------------------------------
+
+/// A direction chosen by a BSDF's sampling routine, with what the estimator needs to weight it.
+struct BsdfSample {
+  Vec3 wi{0, 0, 1};    ///< Sampled direction towards the light, local frame, unit.
+  Color f{0};          ///< f(wo, wi), per steradian; for a delta lobe its weight divided by |cosθi| (file comment).
+  Real pdf = 0;        ///< Solid-angle pdf of wi, > 0; for a delta lobe the probability of choosing that lobe.
+  bool specular = false; ///< True for a Dirac-delta lobe (mirror reflection, glass).
+
+  /// The estimator's weight f·|cosθi|/pdf, per channel, ≥ 0.
+  Color weight() const { return f * std::abs(wi.z) / pdf; }
+};
+
+// ---- Lambertian: f = ρ/π ------------------------------------------------------------------------------------
+
+/// The Lambertian BRDF, ρ/π per steradian when wo and wi lie on the same side, 0 otherwise.
+/// @param albedo ρ in [0, 1] per channel: the share of light reflected, whatever the direction of arrival.
+/// @param wo,wi unit directions in the local frame (towards the viewer, towards the light).
+Color lambertianEval(const Color& albedo, const Vec3& wo, const Vec3& wi);
+/// The pdf of lambertianSample: cos-weighted, |cosθi|/π on wo's side, 0 on the other.
+Real lambertianPdf(const Vec3& wo, const Vec3& wi);
+/// A cosine-weighted direction on wo's side; its weight is exactly ρ. Nothing when wo is tangent (wo.z = 0).
+std::optional<BsdfSample> lambertianSample(const Color& albedo, const Vec3& wo, Vec2 u);
+
+// ---- Ideal mirror --------------------------------------------------------------------------------------------
+
+/// The ideal mirror: wi = reflect(wo, n) with weight `tint` (in [0, 1] per channel). Nothing when wo.z = 0.
+std::optional<BsdfSample> mirrorSample(const Color& tint, const Vec3& wo);
+
+// ---- Ideal dielectric (glass) --------------------------------------------------------------------------------
+
+/// The smooth dielectric: reflection with probability F and refraction with probability 1 − F, F the Fresnel
+/// reflectance (fresnelDielectric), so each sample's weight is `tint` (per channel in [0, 1]). Under total
+/// internal reflection F = 1 and the sample always reflects. Radiance is not scaled by η² on crossing: for a path
+/// that enters and leaves a closed object (every path from a camera outside glass to a light outside it) the factors
+/// cancel, and leaving them out keeps the weight exactly the tint.
+/// @param tint colour C in [0, 1] per channel. @param eta η_inside/η_outside, > 0.
+/// @param wo unit direction towards the viewer, local frame. @param uChoice uniform in [0, 1): chooses the lobe.
+std::optional<BsdfSample> dielectricSample(const Color& tint, Real eta, const Vec3& wo, Real uChoice);
+
+// ---- Glossy: normalised (modified) Phong ---------------------------------------------------------------------
+
+/// The Phong exponent n for a roughness r in (0, 1]: n = 2/r² − 2, so r = 1 is Lambertian (n = 0) and the
+/// lobe narrows as r → 0 (the mapping makes the lobe's width grow about linearly with r).
+Real phongExponent(Real roughness);
+
+/// The normalised modified Phong BRDF (Lafortune and Willems 1994): f = ρ_s (n + 2)/(2π) cosⁿα, with α the
+/// angle between wi and the mirror direction of wo, on wo's side only. Symmetric in wo and wi (reciprocal), and
+/// its directional albedo is at most ρ_s (exactly ρ_s at normal incidence), so it conserves energy.
+/// @param albedo ρ_s in [0, 1] per channel. @param exponent n ≥ 0.
+/// @param wo,wi unit directions in the local frame (towards the viewer, towards the light).
+Color phongEval(const Color& albedo, Real exponent, const Vec3& wo, const Vec3& wi);
+/// The pdf of phongSample: (n + 1)/(2π) cosⁿα on wo's side, 0 on the other.
+Real phongPdf(Real exponent, const Vec3& wo, const Vec3& wi);
+/// A direction from the cosⁿα lobe around the mirror direction; nothing when it falls below the surface
+/// (the estimator then counts the sample as 0, which keeps it unbiased: the pdf is not renormalised).
+std::optional<BsdfSample> phongSample(const Color& albedo, Real exponent, const Vec3& wo, Vec2 u);
+
+// ---- A material's BSDF ---------------------------------------------------------------------------------------
+
+/// f(wo, wi) of material `m` (local frame); 0 for the delta lobes of mirror and glass.
+Color bsdfEval(const Material& m, const Vec3& wo, const Vec3& wi);
+/// The pdf with which bsdfSample chooses wi (local frame); 0 for mirror and glass.
+Real bsdfPdf(const Material& m, const Vec3& wo, const Vec3& wi);
+/// Samples wi for material `m` (local frame). @param m the material. @param wo unit direction towards the viewer.
+/// @param u uniform in [0, 1)² (the direction).
+/// @param uChoice uniform in [0, 1) (which lobe, for glass). Nothing when the sample carries no light.
+std::optional<BsdfSample> bsdfSample(const Material& m, const Vec3& wo, Vec2 u, Real uChoice);
+
+} // namespace raylife

@@ -1,0 +1,16 @@
+#include "shading/material.h"
+
+namespace raylife {
+
+const char* materialTypeName(MaterialType type)
+{
+  switch (type) {
+  case MaterialType::Diffuse: return "diffuse";
+  case MaterialType::Mirror: return "mirror";
+  case MaterialType::Glass: return "glass";
+  case MaterialType::Glossy: return "glossy";
+  }
+  return "unknown";
+}
+
+} // namespace raylife

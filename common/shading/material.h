@@ -1,0 +1,35 @@
+/// @file material.h
+/// @brief A surface's material as the scene file states it.
+#pragma once
+
+#include "core/math.h"
+
+#include <string>
+
+namespace raylife {
+
+/// The kinds of surface raylife knows. A closed set, switched on where it is used: no plugin registry.
+enum class MaterialType {
+  Diffuse, ///< Lambertian: reflects equally in all directions; `color` is the albedo ρ.
+  Mirror,  ///< Ideal specular reflection, tinted by `color`.
+  Glass,   ///< Ideal dielectric: Fresnel-weighted reflection and refraction with index `ior`, tinted by `color`.
+  Glossy,  ///< Rough reflection, `roughness` in (0, 1]; `color` is the specular albedo.
+};
+
+/// The name a scene file uses for a material type ("diffuse", "mirror", "glass", "glossy").
+const char* materialTypeName(MaterialType type);
+
+/// A material. Colours are linear RGB reflectances in [0, 1]; emission is radiance (≥ 0, unbounded).
+struct Material {
+  std::string name;                         ///< The key it has in the scene file's "materials".
+  MaterialType type = MaterialType::Diffuse; ///< What kind of surface.
+  Color color{Real(0.8)};                   ///< Reflectance / tint per channel, in [0, 1].
+  Color emission{0};                        ///< Emitted radiance Le, ≥ 0 per channel; non-zero makes an area light.
+  Real ior = Real(1.5);                     ///< Index of refraction (glass), ≥ 1, relative to the outside medium.
+  Real roughness = Real(0.3);               ///< Roughness (glossy), in (0, 1].
+
+  /// True when the surface emits light.
+  bool isEmissive() const { return emission.r > 0 || emission.g > 0 || emission.b > 0; }
+};
+
+} // namespace raylife
