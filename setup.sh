@@ -12,6 +12,7 @@ packages=(
   libglm-dev                     # vector maths
   libstb-dev                     # PNG reading and writing
   nlohmann-json3-dev             # scene files
+  libassimp-dev                  # mesh files (OBJ, PLY)
   catch2                         # tests (version 2)
   doxygen graphviz libjs-mathjax # docs, offline formulas
 )

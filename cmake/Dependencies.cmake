@@ -1,6 +1,8 @@
 # Every dependency comes from Debian's packages (./setup.sh installs them). Nothing is downloaded.
 find_package(glm REQUIRED CONFIG)
 find_package(nlohmann_json 3.10 REQUIRED CONFIG)
+# Assimp reads the mesh files (OBJ, ASCII and binary PLY); raylife checks what it returns (scene/mesh_file.h).
+find_package(assimp 5 REQUIRED CONFIG)
 find_package(OpenMP REQUIRED COMPONENTS CXX)
 find_package(Threads REQUIRED)
 

@@ -45,9 +45,19 @@ float roundDown(Real x)
 
 float roundUp(Real x) { return -roundDown(-x); }
 
+// A triangle's box, widened as a sphere's is: by kBoxMargin relative to the size of its coordinates.
+Bounds3 triangleBounds(const Vec3& p0, const Vec3& p1, const Vec3& p2)
+{
+  const Bounds3 exact = Bounds3{p0, p0}.merged(p1).merged(p2);
+  const Real size = std::max(maxComponent(glm::abs(exact.lo)), maxComponent(glm::abs(exact.hi)));
+  const Vec3 margin(kBoxMargin<Real> * size);
+  return Bounds3{exact.lo - margin, exact.hi + margin};
+}
+
 // ---- Building -------------------------------------------------------------------------------------------------
 
-// A sphere while the tree is built: its box, the centre of that box (what the splits sort by), its index.
+// A primitive while the tree is built: its box, the centre of that box (what the splits sort by), its number
+// (spheres first, then triangles).
 struct BuildItem {
   Bounds3 bounds;
   Vec3 centroid;
@@ -74,7 +84,9 @@ int longestAxis(const Bounds3& b)
 
 class Builder {
 public:
-  Builder(std::vector<BuildItem> items, const BvhBuildOptions& options) : items_(std::move(items)), options_(options)
+  // `spheres`: items numbered below it are spheres, the others triangles.
+  Builder(std::vector<BuildItem> items, int spheres, const BvhBuildOptions& options)
+      : items_(std::move(items)), spheres_(spheres), options_(options)
   {
     options_.bins = std::clamp(options_.bins, 2, kMaxBins);
     options_.maxLeafSize = std::clamp(options_.maxLeafSize, 1, 255);
@@ -101,9 +113,11 @@ public:
       nodes[nodeIndex].bounds[1][a] = roundUp(bounds.hi[a]);
     }
 
-    const std::optional<Split> split = chooseSplit(begin, end, bounds, centroids, level);
+    std::optional<Split> split = chooseSplit(begin, end, bounds, centroids, level);
+    if (!split)
+      split = byKind(begin, end); // a leaf holds one kind of primitive: split a mixed one, spheres first
     if (!split) {
-      // A leaf: its spheres are items [begin, end), which is where they stay in the final order.
+      // A leaf: its primitives are items [begin, end), which is where they stay in the final order.
       nodes[nodeIndex].offset = std::uint32_t(begin);
       nodes[nodeIndex].count = std::uint16_t(end - begin);
       return;
@@ -120,6 +134,18 @@ public:
 
 private:
   static constexpr int kMaxBins = 64;
+
+  // Items [begin, end) split into their spheres and their triangles, or nothing when they are all of one kind.
+  std::optional<Split> byKind(std::size_t begin, std::size_t end)
+  {
+    const auto first = items_.begin() + std::ptrdiff_t(begin), last = items_.begin() + std::ptrdiff_t(end);
+    const auto midIt =
+        std::stable_partition(first, last, [this](const BuildItem& item) { return item.index < spheres_; });
+    const std::size_t mid = std::size_t(midIt - items_.begin());
+    if (mid == begin || mid == end)
+      return std::nullopt;
+    return Split{mid};
+  }
 
   std::optional<Split> chooseSplit(std::size_t begin, std::size_t end, const Bounds3& bounds,
                                    const Bounds3& centroids, int level)
@@ -242,6 +268,7 @@ private:
   }
 
   std::vector<BuildItem> items_;
+  int spheres_;
   BvhBuildOptions options_;
 };
 
@@ -381,28 +408,57 @@ unsigned hitsBoxes(const BvhWideNode& node, const BoxRay<V>& r, float (&tEnter)[
 } // namespace
 
 Bvh::Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options)
+    : Bvh(std::span<const Sphere>(spheres), std::span<const Vec3>(), std::span<const Triangle>(), options)
 {
-  if (spheres.empty())
+}
+
+Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::span<const Triangle> triangles,
+         const BvhBuildOptions& options)
+{
+  const std::size_t count = spheres.size() + triangles.size();
+  if (count == 0)
     return;
-  std::vector<BuildItem> items(spheres.size());
+  std::vector<BuildItem> items(count);
   for (std::size_t i = 0; i < spheres.size(); ++i) {
     const Bounds3 b = sphereBounds(spheres[i]);
     items[i] = BuildItem{b, (b.lo + b.hi) / Real(2), int(i)};
   }
+  for (std::size_t j = 0; j < triangles.size(); ++j) {
+    const Triangle& tri = triangles[j];
+    const Bounds3 b = triangleBounds(vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]);
+    items[spheres.size() + j] = BuildItem{b, (b.lo + b.hi) / Real(2), int(spheres.size() + j)};
+  }
   eightAtOnce_ = options.eightAtOnce && cpuHasAvx2();
-  Builder builder(std::move(items), options);
-  builder.nodes.reserve(2 * spheres.size());
-  builder.build(0, spheres.size(), 1);
+  Builder builder(std::move(items), int(spheres.size()), options);
+  builder.nodes.reserve(2 * count);
+  builder.build(0, count, 1);
   nodes_ = std::move(builder.nodes);
   nodes_.shrink_to_fit();
   depth_ = builder.depth;
 
-  // The spheres in leaf order, so that a leaf's spheres lie side by side in memory.
-  primitives_.reserve(spheres.size());
-  for (const BuildItem& item : builder.items()) {
-    const Sphere& s = spheres[std::size_t(item.index)];
-    primitives_.push_back(Primitive{s.center, s.radius, item.index, false});
+  // The primitives in leaf order, each kind in its own list, so that a leaf's primitives lie side by side; a
+  // leaf's offset becomes its first primitive's place in its kind's list.
+  std::vector<std::uint32_t> placeInKind(count);
+  spheres_.reserve(spheres.size());
+  triangles_.reserve(triangles.size());
+  const std::vector<BuildItem>& order = builder.items();
+  for (std::size_t k = 0; k < count; ++k) {
+    const int index = order[k].index;
+    if (std::size_t(index) < spheres.size()) {
+      placeInKind[k] = std::uint32_t(spheres_.size());
+      const Sphere& s = spheres[std::size_t(index)];
+      spheres_.push_back(SpherePrimitive{s.center, s.radius, index, false});
+    } else {
+      placeInKind[k] = std::uint32_t(triangles_.size());
+      const Triangle& tri = triangles[std::size_t(index) - spheres.size()];
+      triangles_.push_back(TrianglePrimitive{vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]], index, false});
+    }
   }
+  for (BvhNode& n : nodes_)
+    if (n.count > 0) {
+      n.triangles = std::size_t(order[n.offset].index) >= spheres.size() ? 1 : 0;
+      n.offset = placeInKind[n.offset];
+    }
 
   // The tree the queries walk: up to eight children to a node.
   // No reserve: the count is not known before the collapse (about a sixth of the built nodes), and a generous guess
@@ -458,9 +514,12 @@ std::uint32_t Bvh::collapse(std::uint32_t node)
     }
   for (int k = 0; k < n; ++k) {
     const BvhNode& child = nodes_[children[k]];
-    if (child.count > 0) {
+    if (child.count > 0 && child.triangles) {
+      wide.child[k] = BvhWideNode::kLeaf | BvhWideNode::kTriangles | child.offset;
+      triangles_[child.offset + child.count - 1u].lastInLeaf = true;
+    } else if (child.count > 0) {
       wide.child[k] = BvhWideNode::kLeaf | child.offset;
-      primitives_[child.offset + child.count - 1u].lastInLeaf = true;
+      spheres_[child.offset + child.count - 1u].lastInLeaf = true;
     } else {
       wide.child[k] = collapse(children[k]);
     }
@@ -471,8 +530,8 @@ std::uint32_t Bvh::collapse(std::uint32_t node)
 /// [collapse]
 
 /// [traverse]
-// (flatten: inline the sphere test into the loop, as it is in the scene's flat loop; a call per sphere costs more
-// than the test.)
+// (flatten: inline the sphere and triangle tests into the loops, as they are in the scene's flat loop; a call per
+// primitive costs more than the test.)
 template <bool kAnyHit, bool kCountWork, class V> [[gnu::flatten]] Bvh::Traversal Bvh::traverse(const Ray& ray) const
 {
   Traversal found{ray.tmax, -1, BvhWork{}};
@@ -538,11 +597,32 @@ template <bool kAnyHit, bool kCountWork, class V> [[gnu::flatten]] Bvh::Traversa
         current = stack[--stackSize].child;
         continue;
       }
+    } else if (current & BvhWideNode::kTriangles) {
+      // A leaf of triangles, tested as a leaf of spheres is (below).
+      for (std::uint32_t i = current & BvhWideNode::kIndexMask;; ++i) {
+        const TrianglePrimitive& p = triangles_[i];
+        if constexpr (kCountWork)
+          found.work.primitivesTested += 1;
+        const std::optional<TriangleHit<Real>> h =
+            intersectTriangle(ray.origin, ray.direction, p.p0, p.p1, p.p2, ray.tmin, ray.tmax);
+        if (h) {
+          if constexpr (kAnyHit)
+            return Traversal{h->t, p.index, found.work};
+          if (h->t < found.t || (h->t == found.t && p.index < found.primitive)) {
+            found.t = h->t;
+            found.primitive = p.index;
+            tNearest = floatAbove(found.t);
+            fill(boxRay.tmax, tNearest);
+          }
+        }
+        if (p.lastInLeaf)
+          break;
+      }
     } else {
-      // A leaf: test its spheres. Keep the nearer hit, or on a tie the lower index (as the brute-force
+      // A leaf of spheres: test them. Keep the nearer hit, or on a tie the lower number (as the brute-force
       // loop's strict "nearer" does), so the answer does not depend on the order of the tree.
-      for (std::uint32_t i = current & ~BvhWideNode::kLeaf;; ++i) {
-        const Primitive& p = primitives_[i];
+      for (std::uint32_t i = current & BvhWideNode::kIndexMask;; ++i) {
+        const SpherePrimitive& p = spheres_[i];
         if constexpr (kCountWork)
           found.work.primitivesTested += 1;
         const std::optional<Real> t =

@@ -1,26 +1,32 @@
 /// @file bvh.h
-/// @brief A bounding volume hierarchy over spheres: built with the binned surface area heuristic, collapsed to
-/// eight children per node, traversed front to back with the children's boxes tested together in float (all
-/// eight in one instruction where the CPU has AVX2, four at a time elsewhere); closest-hit and any-hit (shadow ray)
-/// queries.
+/// @brief A bounding volume hierarchy over spheres and triangles: built with the binned surface area heuristic,
+/// collapsed to eight children per node, traversed front to back with the children's boxes tested together in float
+/// (all eight in one instruction where the CPU has AVX2, four at a time elsewhere); closest-hit and any-hit (shadow
+/// ray) queries.
 ///
-/// The idea. Testing a ray against every sphere costs N sphere tests. Group the spheres into boxes, the boxes
+/// The idea. Testing a ray against every primitive costs N tests. Group the primitives into boxes, the boxes
 /// into bigger boxes, up to one box around everything: a ray that misses a box skips everything inside it, so a
-/// ray typically pays for a few dozen box tests and a handful of sphere tests, about log N work instead of N.
+/// ray typically pays for a few dozen box tests and a handful of primitive tests, about log N work instead of N.
+///
+/// The primitives are numbered as the scene numbers them: spheres first (sphere i is primitive i), then triangles
+/// (triangle j is primitive S + j, with S spheres). A leaf holds primitives of one kind, so its loop tests spheres
+/// or triangles without asking each one which it is.
 ///
 /// The contract that makes it safe to use everywhere: a query returns exactly what the brute-force loop over the
-/// same spheres returns (the same sphere, the same t to the last bit, ties between spheres at the same t going
-/// to the lowest index as the loop's strict "nearer" does). Boxes are widened by kBoxMargin, and the float box
-/// test rounds everything to the safe side, so that rounding can never cull a sphere the loop would hit.
+/// same primitives returns (the same primitive, the same t to the last bit, ties at the same t going to the
+/// lowest number as the loop's strict "nearer" does). Boxes are widened by kBoxMargin, and the float box test
+/// rounds everything to the safe side, so that rounding can never cull a primitive the loop would hit.
 /// tests/bvh checks this on millions of rays.
 #pragma once
 
 #include "core/math.h"
 #include "geometry/ray.h"
 #include "geometry/sphere.h"
+#include "geometry/triangle.h"
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <vector>
 
 namespace raylife {
@@ -45,13 +51,14 @@ struct Bounds3 {
 /// One node of the tree as the builder makes it (binary): 32 bytes, so two share a 64-byte cache line.
 ///
 /// The nodes are stored depth first: an interior node's first child is the next node in the array and
-/// `offset` is the index of its second child; a leaf's spheres are primitives [offset, offset + count).
+/// `offset` is the index of its second child; a leaf's primitives are [offset, offset + count) of its kind's list
+/// (spheres, or triangles when `triangles` is 1), in the tree's order.
 /// Bounds are float, rounded outwards from the scene's scalar, so they hold everything the exact box holds.
 struct alignas(32) BvhNode {
-  glm::vec3 bounds[2];    ///< Box: [0] its smallest corner (rounded down), [1] its largest (rounded up).
-  std::uint32_t offset;   ///< Leaf: first primitive. Interior: index of the second child.
-  std::uint16_t count;    ///< Leaf: number of primitives, ≥ 1. Interior: 0.
-  std::uint16_t pad = 0;  ///< Unused; keeps the node 32 bytes and its bytes defined (builds compare equal).
+  glm::vec3 bounds[2];        ///< Box: [0] its smallest corner (rounded down), [1] its largest (rounded up).
+  std::uint32_t offset;       ///< Leaf: first primitive. Interior: index of the second child.
+  std::uint16_t count;        ///< Leaf: number of primitives, ≥ 1. Interior: 0.
+  std::uint16_t triangles = 0; ///< Leaf: 1 when its primitives are triangles, 0 for spheres. Interior: 0.
 };
 static_assert(sizeof(BvhNode) == 32, "a BvhNode is meant to be 32 bytes");
 
@@ -66,10 +73,15 @@ struct alignas(64) BvhWideNode {
   static constexpr int kWidth = 8;
   /// Set in `child` for a leaf.
   static constexpr std::uint32_t kLeaf = 0x80000000u;
+  /// Set in `child`, with kLeaf, for a leaf of triangles.
+  static constexpr std::uint32_t kTriangles = 0x40000000u;
+  /// The bits of `child` below the flags: a node's or a first primitive's index.
+  static constexpr std::uint32_t kIndexMask = 0x3fffffffu;
 
   float bounds[6 * kWidth]; ///< Child k's box: coordinate (face, axis) at [(3·face + axis)·kWidth + k].
   /// Per child: an interior child's index in Bvh::wideNodes(), or kLeaf | the index of a leaf's first
-  /// primitive (a leaf's primitives lie side by side). 0 in an empty slot.
+  /// primitive in its kind's list, with kTriangles set for a leaf of triangles (a leaf's primitives lie side by
+  /// side). 0 in an empty slot.
   std::uint32_t child[kWidth];
   std::uint32_t boxes;       ///< Children, in slots [0, boxes): 2 to kWidth (1 in the root of a one-leaf tree).
   std::uint32_t pad[7] = {}; ///< Unused; keeps the node 256 bytes and its bytes defined.
@@ -79,7 +91,7 @@ struct alignas(64) BvhWideNode {
 };
 static_assert(sizeof(BvhWideNode) == 256, "a BvhWideNode is meant to be 256 bytes");
 
-/// How the builder chooses where to split a node's spheres.
+/// How the builder chooses where to split a node's primitives.
 enum class BvhSplit {
   Sah,      ///< The surface area heuristic over binned centroids (the good split; the default).
   Midpoint, ///< Halve the centroids' box on its longest axis, ignoring cost (the bad split, for comparison).
@@ -89,24 +101,25 @@ enum class BvhSplit {
 struct BvhBuildOptions {
   BvhSplit split = BvhSplit::Sah; ///< Splitting rule.
   int bins = 12;                  ///< SAH bins per axis over the centroids' box, in [2, 64].
-  int maxLeafSize = 4;            ///< A node with more spheres than this is always split, in [1, 255].
+  int maxLeafSize = 4;            ///< A node with more primitives than this is always split, in [1, 255].
   /// Test a node's eight boxes in one AVX2 instruction where the CPU has AVX2; false, or a CPU without it: four
   /// at a time (SSE). Either way the same hits and the same work, bit for bit; only the speed differs.
   bool eightAtOnce = true;
 };
 
-/// The relative costs the SAH weighs (only their ratio matters): one box test, and one ray–sphere test.
+/// The relative costs the SAH weighs (only their ratio matters): one box test, and one primitive test (a sphere
+/// and a triangle cost about the same).
 /// On the random-spheres scene the speed barely depends on the ratio (tools/bvh_bench speed: the same within the
 /// noise for C_isect / C_trav from 0.5 to 4); 2 favours small leaves, which suits spheres of similar size.
 struct BvhCosts {
   Real traversal = 1;    ///< C_trav: visiting a node (a box test).
-  Real intersection = 2; ///< C_isect: testing one sphere.
+  Real intersection = 2; ///< C_isect: testing one primitive.
 };
 
 /// The work one query did: the numbers chapter 9 paints as a heat map.
 struct BvhWork {
   std::uint32_t nodesVisited = 0;     ///< Boxes tested.
-  std::uint32_t primitivesTested = 0; ///< Spheres tested.
+  std::uint32_t primitivesTested = 0; ///< Primitives (spheres and triangles) tested.
 
   /// The sum of two queries' work.
   BvhWork operator+(const BvhWork& o) const
@@ -115,26 +128,26 @@ struct BvhWork {
   }
 };
 
-/// The nearest sphere a ray hits: its index in the vector the tree was built from, and the distance.
+/// The nearest primitive a ray hits: its number (see the file comment), and the distance.
 struct BvhHit {
   Real t = 0;        ///< The ray parameter of the hit, in [ray.tmin, ray.tmax).
-  int primitive = -1; ///< Index into the spheres given to the Bvh constructor.
+  int primitive = -1; ///< Sphere i is i; triangle j is spheres + j (the numbering of the Bvh constructor).
 };
 
 /// A closest-hit query's answer with the work it took.
 struct BvhTracedHit {
   std::optional<BvhHit> hit; ///< As Bvh::intersect.
-  BvhWork work;              ///< Boxes and spheres tested.
+  BvhWork work;              ///< Boxes and primitives tested.
 };
 
 /// An any-hit query's answer with the work it took.
 struct BvhTracedOcclusion {
   bool occluded = false; ///< As Bvh::occluded.
-  BvhWork work;          ///< Nodes visited and spheres tested until the answer was known.
+  BvhWork work;          ///< Nodes visited and primitives tested until the answer was known.
 };
 
-/// A bounding volume hierarchy over a fixed set of spheres. Immutable after construction, so any number of
-/// threads may query it at once.
+/// A bounding volume hierarchy over a fixed set of spheres and triangles. Immutable after construction, so any
+/// number of threads may query it at once.
 class Bvh {
 public:
   /// An empty tree: every query misses.
@@ -145,12 +158,19 @@ public:
   /// same spheres and options give the same nodes, byte for byte.
   explicit Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options = {});
 
-  /// The nearest sphere hit inside [ray.tmin, ray.tmax), exactly as the brute-force loop finds it: for every
-  /// sphere its first root in the interval (intersectSphere), and of those the smallest t, the lowest index on
-  /// a tie. Nothing when no sphere is hit. As Ray requires, ray.tmin ≥ 0 (the box test relies on it).
+  /// Builds the tree over `spheres` and `triangles` (whose indices point into `vertices`; every vertex finite).
+  /// Sphere i is primitive i and triangle j primitive spheres.size() + j. Like the sphere-only constructor, the
+  /// tree keeps its own copy of the geometry and the build is deterministic.
+  Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::span<const Triangle> triangles,
+      const BvhBuildOptions& options = {});
+
+  /// The nearest primitive hit inside [ray.tmin, ray.tmax), exactly as the brute-force loop finds it: for every
+  /// sphere its first root in the interval (intersectSphere), for every triangle its hit (intersectTriangle), and
+  /// of those the smallest t, the lowest number on a tie. Nothing when nothing is hit. As Ray requires,
+  /// ray.tmin ≥ 0 (the box test relies on it).
   std::optional<BvhHit> intersect(const Ray& ray) const;
 
-  /// True when any sphere is hit inside [ray.tmin, ray.tmax): the shadow-ray query. Stops at the first sphere
+  /// True when any primitive is hit inside [ray.tmin, ray.tmax): the shadow-ray query. Stops at the first one
   /// found, so it is cheaper than intersect; it is true exactly when intersect finds a hit. ray.tmin ≥ 0.
   bool occluded(const Ray& ray) const;
 
@@ -159,8 +179,8 @@ public:
   /// occluded, also counting the work.
   BvhTracedOcclusion occludedWithWork(const Ray& ray) const;
 
-  /// Spheres the tree was built over (0 for an empty tree).
-  std::size_t primitiveCount() const { return primitives_.size(); }
+  /// Primitives (spheres and triangles) the tree was built over (0 for an empty tree).
+  std::size_t primitiveCount() const { return spheres_.size() + triangles_.size(); }
   /// The tree as built (binary), root first (empty for an empty tree).
   const std::vector<BvhNode>& nodes() const { return nodes_; }
   /// The tree the queries walk (up to BvhWideNode::kWidth children per node), root first, every node before
@@ -173,19 +193,25 @@ public:
 
   /// The expected cost of a ray by the surface area heuristic, summed over the whole tree:
   /// Σ over interior nodes of (A_node / A_root)·C_trav + Σ over leaves of (A_leaf / A_root)·N_leaf·C_isect.
-  /// Lower is better; compares trees built over the same spheres.
+  /// Lower is better; compares trees built over the same primitives.
   Real sahCost(const BvhCosts& costs = {}) const;
 
   /// Deepest tree the builder makes (the wide tree is never deeper): it bounds the traversal's stack.
   static constexpr int kMaxDepth = 64;
 
 private:
-  /// A sphere as the tree stores it: geometry in traversal order, and its index in the caller's vector.
-  struct Primitive {
+  /// A sphere as the tree stores it: geometry in traversal order, and its number.
+  struct SpherePrimitive {
     Vec3 center;
     Real radius;
     int index;
     bool lastInLeaf; // its leaf's primitives end here
+  };
+  /// A triangle as the tree stores it: its vertices (copied, so a leaf's triangles lie side by side), its number.
+  struct TrianglePrimitive {
+    Vec3 p0, p1, p2;
+    int index;
+    bool lastInLeaf;
   };
 
   /// What one traversal found: the nearest hit (closest-hit) or any hit (any-hit), and the work if counted.
@@ -203,7 +229,8 @@ private:
 
   std::vector<BvhNode> nodes_;
   std::vector<BvhWideNode> wideNodes_;
-  std::vector<Primitive> primitives_;
+  std::vector<SpherePrimitive> spheres_;
+  std::vector<TrianglePrimitive> triangles_;
   int depth_ = 0;
   bool eightAtOnce_ = false; // the boxes eight at a time (AVX2)
 };

@@ -11,21 +11,28 @@ namespace raylife {
 /// What a ray hit: returned by value from Scene::intersect.
 struct Hit {
   Real t = 0;          ///< Distance along the ray (the ray's direction is unit).
-  Vec3 point{0};       ///< The hit point, on the surface (re-projected).
-  Vec3 normal{0, 0, 1}; ///< Outward unit surface normal (points out of the sphere, whatever side the ray came from).
+  Vec3 point{0};       ///< The hit point, on the surface (re-projected onto a sphere; from the barycentrics on a
+                       ///< triangle).
+  /// The unit normal shading uses: a sphere's outward normal (whatever side the ray came from), a triangle's
+  /// front-side normal, or, on a smooth mesh, the vertex normals interpolated there (on the front side).
+  Vec3 normal{0, 0, 1};
+  /// The surface's own unit normal: out of a sphere, or a triangle's front side ((p1 − p0) × (p2 − p0)). Equal
+  /// to `normal` except on smooth meshes. New rays leave the surface along it (spawnRay).
+  Vec3 geometricNormal{0, 0, 1};
   Vec3 pointError{0};  ///< Per-component bound on the floating-point error of `point`.
-  int sphere = -1;     ///< Index into Scene::spheres.
+  int primitive = -1;  ///< What was hit: sphere i is i, triangle j is Scene::spheres.size() + j.
   int material = -1;   ///< Index into Scene::materials.
 
-  /// True when the ray arrived from outside the sphere (its direction opposes the outward normal).
-  bool frontFace(const Vec3& rayDirection) const { return glm::dot(rayDirection, normal) < 0; }
+  /// True when the ray arrived from the front: from outside a sphere, or on a triangle's front side (its
+  /// direction opposes the geometric normal).
+  bool frontFace(const Vec3& rayDirection) const { return glm::dot(rayDirection, geometricNormal) < 0; }
 };
 
 /// A ray leaving the hit point in unit direction `dir`, its origin moved off the surface by the point's error
 /// bound to the side `dir` leaves through, so it cannot hit the same surface at t ≈ 0 (tmin = 0).
 inline Ray spawnRay(const Hit& hit, const Vec3& dir)
 {
-  return Ray{offsetRayOrigin(hit.point, hit.pointError, hit.normal, dir), dir, 0, kInfinity};
+  return Ray{offsetRayOrigin(hit.point, hit.pointError, hit.geometricNormal, dir), dir, 0, kInfinity};
 }
 
 // [spawnRayTo]
@@ -36,9 +43,9 @@ inline Ray spawnRayTo(const Hit& hit, const Vec3& target)
   const Vec3 toTarget = target - hit.point;
   const Real distance = glm::length(toTarget);
   if (!(distance > 0)) // the target is the hit point itself: an empty ray, which nothing can block
-    return Ray{hit.point, hit.normal, 0, 0};
+    return Ray{hit.point, hit.geometricNormal, 0, 0};
   const Vec3 dir = toTarget / distance;
-  const Vec3 origin = offsetRayOrigin(hit.point, hit.pointError, hit.normal, dir);
+  const Vec3 origin = offsetRayOrigin(hit.point, hit.pointError, hit.geometricNormal, dir);
   return Ray{origin, dir, 0, glm::length(target - origin) * (1 - kShadowRayShorten)};
 }
 // [spawnRayTo]

@@ -47,8 +47,11 @@ std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGive
   auto plural = [](std::size_t n, const std::string& one, const std::string& many) {
     return std::to_string(n) + " " + (n == 1 ? one : many);
   };
-  if (!(uses & kUsesSpheres))
+  if (!(uses & kUsesSpheres) && !scene.spheres.empty())
     parts.push_back(plural(scene.spheres.size(), "sphere", "spheres"));
+  if (!(uses & kUsesSpheres) && !scene.triangles.empty())
+    parts.push_back(plural(scene.meshes.size(), "mesh", "meshes") + " (" +
+                    plural(scene.triangles.size(), "triangle", "triangles") + ")");
   if (!(uses & kUsesColors) && (uses & kUsesSpheres))
     parts.push_back("material colours");
   if (!(uses & kUsesPointLights) && !scene.lights.empty())
@@ -60,8 +63,8 @@ std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGive
   if (uses & kUsesSpheres) {
     std::size_t emissive = 0, asDiffuse = 0;
     std::vector<bool> used(scene.materials.size(), false);
-    for (const Sphere& s : scene.spheres)
-      used[std::size_t(s.material)] = true;
+    for (std::size_t i = 0; i < scene.primitiveCount(); ++i)
+      used[std::size_t(scene.materialOf(int(i)))] = true;
     for (std::size_t i = 0; i < scene.materials.size(); ++i) {
       if (!used[i])
         continue; // an unused material is the loader's warning, not something the chapter ignores

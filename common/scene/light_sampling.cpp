@@ -4,15 +4,23 @@
 
 namespace raylife {
 
-LightSampler::LightSampler(const Scene& scene) : scene_(scene), sphereProbability_(scene.spheres.size(), 0)
+LightSampler::LightSampler(const Scene& scene) : scene_(scene)
 {
-  // Each light's power Φ (its luminance): π·Le·4πr² for an emissive sphere, 4π·I for a point light.
+  // Each light's power Φ (its luminance): π·Le·A for an emitter of area A (4πr² for a sphere), 4π·I for a point light.
   std::vector<Real> power;
-  for (std::size_t i = 0; i < scene.spheres.size(); ++i) {
-    const Sphere& s = scene.spheres[i];
-    const Material& m = scene.materials[std::size_t(s.material)];
-    const Real phi = luminance(m.emission) * kPi * 4 * kPi * s.radius * s.radius;
-    if (m.isEmissive() && phi > 0) {
+  for (std::size_t i = 0; i < scene.primitiveCount(); ++i) {
+    const Material& m = scene.materials[std::size_t(scene.materialOf(int(i)))];
+    if (!m.isEmissive())
+      continue;
+    Real phi = 0;
+    if (i < scene.spheres.size()) {
+      const Real r = scene.spheres[i].radius;
+      phi = luminance(m.emission) * kPi * 4 * kPi * r * r;
+    } else {
+      const auto [p0, p1, p2] = scene.triangleVertices(i - scene.spheres.size());
+      phi = luminance(m.emission) * kPi * (triangleDoubleArea(p0, p1, p2) / 2);
+    }
+    if (phi > 0) {
       lights_.push_back(int(i));
       power.push_back(phi);
     }
@@ -37,9 +45,16 @@ LightSampler::LightSampler(const Scene& scene) : scene_(scene), sphereProbabilit
     running += power[k];
     cdf_.push_back(running / total);
     if (lights_[k] >= 0)
-      sphereProbability_[std::size_t(lights_[k])] = power[k] / total;
+      emitters_.emplace_back(lights_[k], power[k] / total); // in increasing primitive order
   }
   cdf_.back() = 1;
+}
+
+Real LightSampler::probability(int primitive) const
+{
+  const auto it = std::lower_bound(emitters_.begin(), emitters_.end(), primitive,
+                                   [](const std::pair<int, Real>& e, int p) { return e.first < p; });
+  return it != emitters_.end() && it->first == primitive ? it->second : 0;
 }
 
 // [sample]
@@ -62,6 +77,21 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Ve
     return LightSample{in->direction, p.position, in->intensity, choice, -1, true};
   }
 
+  const Color& Le = scene_.materials[std::size_t(scene_.materialOf(light))].emission;
+  if (std::size_t(light) >= scene_.spheres.size()) {
+    // An emissive triangle: a direction uniform in its solid angle (or on its area), and the point where it meets
+    // the triangle's plane.
+    const auto [p0, p1, p2] = scene_.triangleVertices(std::size_t(light) - scene_.spheres.size());
+    const std::optional<TriangleLightSample<Real>> ts = sampleTriangleLight(ref, p0, p1, p2, u);
+    if (!ts)
+      return std::nullopt;
+    const Vec3 n = triangleNormal(p0, p1, p2);
+    const Real along = glm::dot(ts->wi, n);
+    const Real t = along != 0 ? glm::dot(p0 - ref, n) / along : 0;
+    const Vec3 target = ref + std::max(Real(0), t) * ts->wi;
+    return LightSample{ts->wi, target, Le, choice * ts->pdf, light, false};
+  }
+
   // An emissive sphere: a direction uniform in the cone it subtends, and the point it first hits on the sphere.
   const Sphere& s = scene_.spheres[std::size_t(light)];
   const Vec3 wi = sampleSphereCone(ref, s.center, s.radius, u);
@@ -73,7 +103,7 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Ve
   if (roots)
     t = roots->t0 >= 0 ? roots->t0 : roots->t1;
   const Vec3 target = ref + std::max(Real(0), t) * wi;
-  return LightSample{wi, target, scene_.materials[std::size_t(s.material)].emission, pdf, light, false};
+  return LightSample{wi, target, Le, pdf, light, false};
 }
 // [sample]
 
@@ -82,12 +112,10 @@ bool lightVisible(const Scene& scene, const Hit& hit, const LightSample& ls)
 {
   if (ls.delta)
     return !scene.occluded(spawnRayTo(hit, ls.target));
-  // Where the shadow ray first meets the light, from the ray's own origin (the sphere test Scene::intersect makes).
+  // Where the shadow ray first meets the light, from the ray's own origin (the test Scene::intersect makes).
   // Nowhere ahead: the direction leaves the light's own surface, or grazes past its edge by rounding.
   Ray ray = spawnRay(hit, ls.wi);
-  const Sphere& light = scene.spheres[std::size_t(ls.sphere)];
-  const std::optional<Real> t =
-      intersectSphere(ray.origin, ray.direction, light.center, light.radius, ray.tmin, ray.tmax);
+  const std::optional<Real> t = scene.intersectPrimitive(ray, ls.primitive);
   if (!t)
     return false;
   // Nothing may be met before it: an any-hit query over [0, t), which the light's own root t does not enter.
@@ -96,12 +124,16 @@ bool lightVisible(const Scene& scene, const Hit& hit, const LightSample& ls)
 }
 // [visibleImpl]
 
-Real LightSampler::pdf(const Vec3& ref, int sphere) const
+Real LightSampler::pdf(const Vec3& ref, int primitive, const Vec3& point) const
 {
-  const Real choice = sphereProbability_[std::size_t(sphere)];
+  const Real choice = probability(primitive);
   if (!(choice > 0))
     return 0;
-  const Sphere& s = scene_.spheres[std::size_t(sphere)];
+  if (std::size_t(primitive) >= scene_.spheres.size()) {
+    const auto [p0, p1, p2] = scene_.triangleVertices(std::size_t(primitive) - scene_.spheres.size());
+    return choice * triangleLightPdf(ref, p0, p1, p2, point);
+  }
+  const Sphere& s = scene_.spheres[std::size_t(primitive)];
   return choice * sphereConePdf(ref, s.center, s.radius);
 }
 

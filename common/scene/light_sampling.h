@@ -1,7 +1,8 @@
 /// @file light_sampling.h
 /// @brief Explicit light sampling (chapters 7 and 8): a direction towards an emissive sphere chosen uniformly in
-/// the cone it subtends, with its pdf beside it; the choice of one light in proportion to its power; and the
-/// heuristics that weight two sampling strategies in multiple importance sampling.
+/// the cone it subtends, and towards an emissive triangle uniformly in the solid angle it subtends (Arvo's
+/// spherical-triangle sampling), each with its pdf beside it; the choice of one light in proportion to its power;
+/// and the heuristics that weight two sampling strategies in multiple importance sampling.
 ///
 /// Every pdf here is a density with respect to solid angle at the shaded point (per steradian), like the BSDF
 /// pdfs of bsdf.h, so the two can be compared and combined. A point light is a delta light: its "pdf" is the
@@ -12,10 +13,13 @@
 #include "core/sampling.h"
 #include "scene/scene.h"
 #include "geometry/sphere.h"
+#include "geometry/triangle.h"
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <optional>
+#include <utility>
 #include <vector>
 
 namespace raylife {
@@ -81,26 +85,167 @@ template <class T> TVec3<T> sampleSphereCone(const TVec3<T>& ref, const TVec3<T>
 
 // [cone]
 
+// ---- The solid angle a triangle subtends -----------------------------------------------------------------------
+
+/// Below this solid angle (steradians) a triangle light is sampled by area rather than by solid angle: Arvo's
+/// construction divides by sines of the triangle's angles on the unit sphere, which lose their precision as the
+/// spherical triangle shrinks, while for so small a triangle (about 1/42,000 of the sphere) area sampling is
+/// already almost uniform in solid angle. The value is pbrt-v4's.
+inline constexpr Real kMinSphericalTriangleArea = Real(3e-4);
+/// Above this solid angle (steradians; 2π is the whole hemisphere, about 6.283) a triangle light is sampled by
+/// area: the point then lies nearly in the triangle's plane, where the spherical triangle's angles approach π and
+/// the construction becomes ill-conditioned. The value is pbrt-v4's.
+inline constexpr Real kMaxSphericalTriangleArea = Real(6.22);
+
+// [triangleSolidAngle]
+/// The solid angle (steradians) that triangle (p0, p1, p2) subtends from `ref`, by Van Oosterom and Strackee's
+/// formula tan(Ω/2) = |a·(b × c)| / (1 + a·b + b·c + c·a) for the unit vectors a, b, c towards the vertices.
+/// atan2 keeps it right past Ω = π (a negative denominator), and it is exact to rounding for tiny triangles, where
+/// the angle-sum form (α + β + γ − π) cancels. In [0, 2π]; 0 when `ref` lies in the triangle's plane.
+template <class T>
+T triangleSolidAngle(const TVec3<T>& ref, const TVec3<T>& p0, const TVec3<T>& p1, const TVec3<T>& p2)
+{
+  const TVec3<T> a = safeNormalize(p0 - ref, TVec3<T>(0)), b = safeNormalize(p1 - ref, TVec3<T>(0)),
+                 c = safeNormalize(p2 - ref, TVec3<T>(0));
+  const T numerator = std::abs(glm::dot(a, glm::cross(b, c)));
+  const T denominator = 1 + glm::dot(a, b) + glm::dot(b, c) + glm::dot(c, a);
+  return 2 * std::atan2(numerator, denominator);
+}
+// [triangleSolidAngle]
+
+/// A direction from `ref` towards a triangle light, chosen by sampleTriangleLight.
+template <class T> struct TriangleLightSample {
+  TVec3<T> wi; ///< Unit direction from `ref` into the triangle.
+  T pdf;       ///< Its solid-angle pdf (per steradian), > 0: triangleLightPdf of the point it meets.
+};
+
+/// True when a triangle that subtends `solidAngle` from the shaded point is sampled by solid angle (Arvo), false
+/// when by area (uniformly on its surface): see kMinSphericalTriangleArea and kMaxSphericalTriangleArea.
+template <class T> bool sampledBySolidAngle(T solidAngle)
+{
+  return solidAngle >= T(kMinSphericalTriangleArea) && solidAngle <= T(kMaxSphericalTriangleArea);
+}
+
+// [sampleSphericalTriangle]
+/// A direction from `ref` uniform in the solid angle of triangle (p0, p1, p2) (Arvo, "Stratified Sampling of
+/// Spherical Triangles", SIGGRAPH 1995), pdf 1/Ω; nothing if the spherical triangle has no area. Contract: the
+/// triangle subtends a solid angle in [kMinSphericalTriangleArea, kMaxSphericalTriangleArea].
+///
+/// The vertices' directions A, B, C bound a triangle on the unit sphere with angles α, β, γ at its corners and area
+/// Ω = α + β + γ − π. Arvo inverts the area: u₀ chooses the sub-triangle A B C' of area u₀·Ω, whose corner C' on
+/// the arc AC follows in closed form; then u₁ chooses the direction on the arc from B to C' so that the density is
+/// uniform.
+template <class T>
+std::optional<TriangleLightSample<T>> sampleSphericalTriangle(const TVec3<T>& ref, const TVec3<T>& p0,
+                                                              const TVec3<T>& p1, const TVec3<T>& p2,
+                                                              glm::vec<2, T> u)
+{
+  const TVec3<T> a = glm::normalize(p0 - ref), b = glm::normalize(p1 - ref), c = glm::normalize(p2 - ref);
+  // The corners' angles, between the great circles through the edges (their planes' normals).
+  const TVec3<T> nAB = safeNormalize(glm::cross(a, b), TVec3<T>(0)), nBC = safeNormalize(glm::cross(b, c), TVec3<T>(0)),
+                 nCA = safeNormalize(glm::cross(c, a), TVec3<T>(0));
+  if (nAB == TVec3<T>(0) || nBC == TVec3<T>(0) || nCA == TVec3<T>(0))
+    return std::nullopt;
+  auto angle = [](const TVec3<T>& x, const TVec3<T>& y) { return std::acos(std::clamp(glm::dot(x, y), T(-1), T(1))); };
+  const T alpha = angle(nAB, -nCA), beta = angle(nBC, -nAB), gamma = angle(nCA, -nBC);
+  const T area = alpha + beta + gamma - std::numbers::pi_v<T>;
+  if (!(area > 0))
+    return std::nullopt;
+
+  // The sub-triangle of area u₀·Ω: its corner C' on the arc from A to C.
+  const T areaPrime = u.x * area;
+  const T s = std::sin(areaPrime - alpha), t = std::cos(areaPrime - alpha);
+  const T cosAlpha = std::cos(alpha), sinAlpha = std::sin(alpha);
+  const T uu = t - cosAlpha;
+  const T vv = s + sinAlpha * glm::dot(a, b); // cos c = A·B, the arc AB
+  const T q = std::clamp(((vv * t - uu * s) * cosAlpha - vv) / ((vv * s + uu * t) * sinAlpha), T(-1), T(1));
+  const TVec3<T> cPerp = safeNormalize(c - glm::dot(c, a) * a, TVec3<T>(0));
+  const TVec3<T> cPrime = q * a + std::sqrt(std::max(T(0), 1 - q * q)) * cPerp;
+  // The direction on the arc from B to C', at cosine z to B.
+  const T z = std::clamp(1 - u.y * (1 - glm::dot(cPrime, b)), T(-1), T(1));
+  const TVec3<T> bPerp = safeNormalize(cPrime - glm::dot(cPrime, b) * b, TVec3<T>(0));
+  const TVec3<T> wi = safeNormalize(z * b + std::sqrt(std::max(T(0), 1 - z * z)) * bPerp, b);
+  return TriangleLightSample<T>{wi, 1 / area};
+}
+// [sampleSphericalTriangle]
+
+// [sampleTriangleArea]
+/// The naive way: a point uniform on the triangle's surface (pdf 1/A per unit area), as a direction from `ref` with
+/// its solid-angle pdf d²/(|cosθ|·A) (θ at the light). It is fine for a triangle that is small or far, and bad for a
+/// large one seen up close: points near `ref` get a tiny pdf and huge weights (the docs' figure). Nothing when the
+/// point is `ref` itself or the direction grazes the triangle's plane.
+template <class T>
+std::optional<TriangleLightSample<T>> sampleTriangleArea(const TVec3<T>& ref, const TVec3<T>& p0, const TVec3<T>& p1,
+                                                         const TVec3<T>& p2, glm::vec<2, T> u)
+{
+  // Uniform barycentrics: b0 = 1 − √u₀, b1 = √u₀·(1 − u₁), b2 = √u₀·u₁.
+  const T su = std::sqrt(u.x);
+  const TVec3<T> point = (1 - su) * p0 + (su * (1 - u.y)) * p1 + (su * u.y) * p2;
+  const TVec3<T> toPoint = point - ref;
+  const T d2 = glm::dot(toPoint, toPoint);
+  const T doubleArea = triangleDoubleArea(p0, p1, p2);
+  if (!(d2 > 0) || !(doubleArea > 0))
+    return std::nullopt;
+  const TVec3<T> wi = toPoint / std::sqrt(d2);
+  const T cosLight = std::abs(glm::dot(wi, triangleNormal(p0, p1, p2)));
+  if (!(cosLight > 0))
+    return std::nullopt;
+  return TriangleLightSample<T>{wi, d2 / (cosLight * doubleArea / 2)};
+}
+// [sampleTriangleArea]
+
+/// A direction from `ref` towards triangle light (p0, p1, p2) as chapters 7 and 8 choose it: uniform in its solid
+/// angle where that is well conditioned (sampledBySolidAngle), uniform on its area otherwise. Nothing when the
+/// triangle is seen edge on from `ref`. @param u uniform in [0, 1)².
+template <class T>
+std::optional<TriangleLightSample<T>> sampleTriangleLight(const TVec3<T>& ref, const TVec3<T>& p0, const TVec3<T>& p1,
+                                                          const TVec3<T>& p2, glm::vec<2, T> u)
+{
+  if (sampledBySolidAngle(triangleSolidAngle(ref, p0, p1, p2)))
+    return sampleSphericalTriangle(ref, p0, p1, p2, u);
+  return sampleTriangleArea(ref, p0, p1, p2, u);
+}
+
+/// The solid-angle pdf of sampleTriangleLight for the direction from `ref` to `point` on the triangle: 1/Ω, or
+/// d²/(|cosθ|·A) where the triangle is sampled by area. 0 when the direction grazes the triangle.
+template <class T>
+T triangleLightPdf(const TVec3<T>& ref, const TVec3<T>& p0, const TVec3<T>& p1, const TVec3<T>& p2,
+                   const TVec3<T>& point)
+{
+  const T solidAngle = triangleSolidAngle(ref, p0, p1, p2);
+  if (sampledBySolidAngle(solidAngle))
+    return 1 / solidAngle;
+  const TVec3<T> toPoint = point - ref;
+  const T d2 = glm::dot(toPoint, toPoint);
+  const T cosLight = std::abs(glm::dot(toPoint, triangleNormal(p0, p1, p2))) / std::sqrt(d2);
+  const T area = triangleDoubleArea(p0, p1, p2) / 2;
+  if (!(d2 > 0) || !(cosLight > 0) || !(area > 0))
+    return 0;
+  return d2 / (cosLight * area);
+}
+
 // ---- Lights and their choice ----------------------------------------------------------------------------------
 
 /// A direction towards a light, chosen by LightSampler::sample, with what the estimator needs to weight it.
 struct LightSample {
   Vec3 wi{0, 0, 1};  ///< Unit direction from the shaded point towards the light, world space.
-  Vec3 target{0};    ///< The point on the light: the point light's position, or where wi first meets the sphere.
-  Color Li{0};       ///< Radiance arriving along wi if nothing blocks it: the sphere's Le; for a point light I/d².
+  Vec3 target{0};    ///< The point on the light: the point light's position, or where wi first meets the emitter.
+  Color Li{0};       ///< Radiance arriving along wi if nothing blocks it: the emitter's Le; for a point light I/d².
   Real pdf = 0;      ///< Probability of choosing this light times the solid-angle pdf of wi (> 0); for a point
                      ///< light, the probability of choosing it alone (a delta light: no density).
-  int sphere = -1;   ///< The emissive sphere sampled (index into Scene::spheres), or −1 for a point light.
+  int primitive = -1; ///< The emitter sampled (a primitive number, sphere or triangle), or −1 for a point light.
   bool delta = false; ///< True for a point light, which no BSDF-sampled ray can hit (its MIS weight is 1).
 };
 
-/// Chooses one of a scene's lights (its emissive spheres and its point lights) in proportion to an estimate of its
-/// power, and a direction towards it.
+/// Chooses one of a scene's lights (its emissive spheres and triangles, and its point lights) in proportion to an
+/// estimate of its power, and a direction towards it.
 ///
-/// The power of an emissive sphere of radius r and radiance Le is Φ = π·Le·4πr² (area times π, the integral of the
-/// cosine over the hemisphere); a point light of intensity I sends Φ = 4π·I. The luminance of Φ is the weight.
-/// Built once per scene before the render (its cumulative distribution is computed once), then only read, so
-/// threads share it. It keeps a reference to the scene, which must outlive it and not change.
+/// The power of an emitter of area A and radiance Le is Φ = π·Le·A (area times π, the integral of the cosine over
+/// the hemisphere): π·Le·4πr² for a sphere of radius r; a point light of intensity I sends Φ = 4π·I. The luminance
+/// of Φ is the weight. (An emissive triangle emits from both faces, as a sphere emits inside too; the weight counts
+/// one, which changes nothing but the choice's odds.) Built once per scene before the render (its cumulative
+/// distribution is computed once), then only read, so threads share it. It keeps a reference to the scene, which
+/// must outlive it and not change.
 class LightSampler {
 public:
   /// Collects the lights of `scene` and their power.
@@ -110,39 +255,41 @@ public:
   bool empty() const { return cdf_.empty(); }
 
   /// One light, chosen with probability ∝ power by `uLight`, and a direction towards it from `ref`, the shaded
-  /// point on a surface: uniform in the emissive sphere's cone (sampleSphereCone), or the point light itself.
+  /// point on a surface: uniform in the emissive sphere's cone (sampleSphereCone), in the emissive triangle's
+  /// solid angle (sampleTriangleLight), or the point light itself.
   /// @param ref the shaded point, world space. @param uLight uniform in [0, 1). @param u uniform in [0, 1)².
-  /// @return nothing when there is no light, or the
-  /// sample carries no light (ref at a point light's position).
+  /// @return nothing when there is no light, or the sample carries no light (ref at a point light's position, a
+  /// triangle seen edge on).
   std::optional<LightSample> sample(const Vec3& ref, Real uLight, Vec2 u) const;
 
-  /// The pdf with which sample() chooses, from `ref`, any given direction that hits emissive sphere `sphere`
-  /// first: its choice probability times sphereConePdf. 0 for a sphere that does not emit. This is the pdf MIS
-  /// needs when a BSDF-sampled ray from `ref` hits that sphere.
-  Real pdf(const Vec3& ref, int sphere) const;
+  /// The pdf with which sample() chooses, from `ref`, the direction towards `point` on emitter `primitive` (a
+  /// direction that meets it there first): its choice probability times sphereConePdf or triangleLightPdf. 0 for a
+  /// primitive that does not emit. This is the pdf MIS needs when a BSDF-sampled ray from `ref` hits that emitter
+  /// at `point`.
+  Real pdf(const Vec3& ref, int primitive, const Vec3& point) const;
 
-  /// The probability of choosing emissive sphere `sphere` (0 for a sphere that does not emit), in [0, 1].
-  Real sphereProbability(int sphere) const { return sphereProbability_[std::size_t(sphere)]; }
+  /// The probability of choosing emitter `primitive` (0 for a primitive that does not emit), in [0, 1].
+  Real probability(int primitive) const;
 
 private:
   const Scene& scene_;
-  std::vector<int> lights_;             // ≥ 0: an emissive sphere's index; < 0: point light −(index + 1)
-  std::vector<Real> cdf_;               // cumulative probability of lights_[0..i], the last exactly 1
-  std::vector<Real> sphereProbability_; // per sphere of the scene: its choice probability (0 if not a light)
+  std::vector<int> lights_;   // ≥ 0: an emitter's primitive number; < 0: point light −(index + 1)
+  std::vector<Real> cdf_;     // cumulative probability of lights_[0..i], the last exactly 1
+  std::vector<std::pair<int, Real>> emitters_; // (primitive, choice probability) of each emitter, by primitive
 };
 
 // [visible]
 /// True when light sample `ls`, taken at the hit `hit`, is not blocked: the light is what the shadow ray sees.
 ///
-/// For an emissive sphere the sample is visible when the first sphere the shadow ray meets is the sampled light.
+/// For an emitter the sample is visible when the first primitive the shadow ray meets is the sampled light.
 /// That is exactly the event in which a BSDF-sampled ray in the same direction would have found the light, so the
 /// two strategies agree on every direction (MIS needs that), the light never blocks itself, and a point on or
 /// inside the light is handled without a tolerance (a direction leaving the light's own surface outwards never
-/// meets it). It is tested without a closest-hit query: first where the ray meets the light (one sphere test, from
-/// the ray's own origin), then an any-hit query (Scene::occluded) over [0, that distance), which stops at the first
-/// blocker and builds no hit record. The answer is the closest-hit query's (only a tie, another sphere met at
-/// exactly the same distance, could differ), so images stay the same bit for bit. For a point light, a shadow ray
-/// that stops just short of it (spawnRayTo) must hit nothing.
+/// meets it). It is tested without a closest-hit query: first where the ray meets the light (one sphere or triangle
+/// test, from the ray's own origin), then an any-hit query (Scene::occluded) over [0, that distance), which stops at
+/// the first blocker and builds no hit record. The answer is the closest-hit query's (only a tie, another primitive
+/// met at exactly the same distance, could differ), so images stay the same bit for bit. For a point light, a shadow
+/// ray that stops just short of it (spawnRayTo) must hit nothing.
 bool lightVisible(const Scene& scene, const Hit& hit, const LightSample& ls);
 // [visible]
 

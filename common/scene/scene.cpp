@@ -10,9 +10,9 @@ std::uint64_t rayCount() { return tRayCount; }
 
 namespace {
 // The hit record of sphere `index` at parameter t, on the re-projected surface point with its error bound. Filled in
-// place in the optional that intersect returns: built as a Hit and then moved in, its 88 bytes were copied once
-// more on every ray (GCC kept the copy; 11 instructions a ray in chapter 6).
-std::optional<Hit> makeHit(const std::vector<Sphere>& spheres, const Ray& ray, Real t, int index)
+// place in the optional that intersect returns: built as a Hit and then moved in, its bytes were copied once more on
+// every ray (GCC kept the copy; 11 instructions a ray in chapter 6).
+std::optional<Hit> makeSphereHit(const std::vector<Sphere>& spheres, const Ray& ray, Real t, int index)
 {
   const Sphere& s = spheres[std::size_t(index)];
   const SurfacePoint<Real> sp = sphereSurfacePoint(ray.origin, ray.direction, t, s.center, s.radius);
@@ -20,24 +20,64 @@ std::optional<Hit> makeHit(const std::vector<Sphere>& spheres, const Ray& ray, R
   hit->t = t;
   hit->point = sp.point;
   hit->normal = sp.normal;
+  hit->geometricNormal = sp.normal;
   hit->pointError = sp.error;
-  hit->sphere = index;
+  hit->primitive = index;
   hit->material = s.material;
   return hit;
+}
+
+// [triangleHit]
+// The hit record of triangle `triangle` (an index into scene.triangles), which the ray hits at parameter t: the
+// test is made again for the barycentrics (the search kept only t), the point comes from them with its error bound,
+// and a smooth mesh's normal is its vertex normals interpolated there, turned to the front side.
+std::optional<Hit> makeTriangleHit(const Scene& scene, const Ray& ray, Real t, std::size_t triangle)
+{
+  const Triangle& tri = scene.triangles[triangle];
+  const auto [p0, p1, p2] = scene.triangleVertices(triangle);
+  const std::optional<TriangleHit<Real>> h =
+      intersectTriangle(ray.origin, ray.direction, p0, p1, p2, ray.tmin, ray.tmax);
+  // (The same test on the same ray gives the same t, so h exists; an empty record only if that ever failed.)
+  const TriangleHit<Real> b = h ? *h : TriangleHit<Real>{t, Real(1) / 3, Real(1) / 3, Real(1) / 3};
+  const TrianglePoint<Real> tp = trianglePoint(p0, p1, p2, b.b0, b.b1, b.b2);
+  std::optional<Hit> hit(std::in_place);
+  hit->t = t;
+  hit->point = tp.point;
+  hit->geometricNormal = triangleNormal(p0, p1, p2);
+  hit->normal = hit->geometricNormal;
+  if (scene.meshes[tri.mesh].smooth) {
+    const Vec3 n = b.b0 * scene.vertexNormals[tri.v[0]] + b.b1 * scene.vertexNormals[tri.v[1]] +
+                   b.b2 * scene.vertexNormals[tri.v[2]];
+    const Vec3 shading = safeNormalize(n, hit->geometricNormal);
+    hit->normal = glm::dot(shading, hit->geometricNormal) < 0 ? -shading : shading;
+  }
+  hit->pointError = tp.error;
+  hit->primitive = int(scene.spheres.size() + triangle);
+  hit->material = tri.material;
+  return hit;
+}
+// [triangleHit]
+
+// The hit record of primitive `index`, hit at t.
+std::optional<Hit> makeHit(const Scene& scene, const Ray& ray, Real t, int index)
+{
+  if (std::size_t(index) < scene.spheres.size())
+    return makeSphereHit(scene.spheres, ray, t, index);
+  return makeTriangleHit(scene, ray, t, std::size_t(index) - scene.spheres.size());
 }
 } // namespace
 
 void Scene::buildAccelerator()
 {
-  const bool tree = spheres.size() > kFlatListMaxSpheres;
-  accelerator = tree ? Bvh(spheres) : Bvh();
+  const bool tree = primitiveCount() > kFlatListMaxPrimitives;
+  accelerator = tree ? Bvh(spheres, vertices, triangles) : Bvh();
   const bool fourAtOnce = !tree && spheres.size() >= kLanesMinSpheres && laneTestAvailable(LaneTest::FourAtOnce);
   lanes = fourAtOnce ? SphereLanes(spheres, LaneTest::FourAtOnce) : SphereLanes();
 }
 
 bool Scene::usesAccelerator() const
 {
-  return accelerator.primitiveCount() > 0 && accelerator.primitiveCount() == spheres.size();
+  return accelerator.primitiveCount() > 0 && accelerator.primitiveCount() == primitiveCount();
 }
 
 bool Scene::usesLanes() const
@@ -46,38 +86,49 @@ bool Scene::usesLanes() const
 }
 
 // [intersect]
-// The hot path of every chapter: flatten inlines the sphere test into the loop (about 16% fewer instructions).
-// The nearest sphere is found one of three ways, all with the same answer; then one hit record is made (one copy
-// of makeHit keeps the function small enough for the chapters to inline it: 4% fewer instructions in chapter 6).
+// The hot path of every chapter: flatten inlines the sphere and triangle tests into the loops (about 16% fewer
+// instructions). The nearest primitive is found one of three ways, all with the same answer; then one hit record is
+// made (one copy of makeHit keeps the function small enough for the chapters to inline it: 4% fewer instructions in
+// chapter 6).
 [[gnu::flatten]] std::optional<Hit> Scene::intersect(const Ray& ray) const
 {
   ++tRayCount;
   Real tNearest = ray.tmax;
   int nearest = -1;
-  if (usesAccelerator()) { // the same answer as the loop below, found through the BVH
+  if (usesAccelerator()) { // the same answer as the loops below, found through the BVH
     if (const std::optional<BvhHit> h = accelerator.intersect(ray)) {
       tNearest = h->t;
       nearest = h->primitive;
     }
-  } else if (usesLanes()) { // the same answer again, four spheres at a time
-    if (const std::optional<SphereHit> h = lanes.intersect(ray)) {
-      tNearest = h->t;
-      nearest = h->sphere;
-    }
   } else {
-    // Find the nearest sphere: each hit shrinks the interval, so later spheres must be nearer to count.
-    for (std::size_t i = 0; i < spheres.size(); ++i) {
-      const Sphere& s = spheres[i];
-      if (auto t = intersectSphere(ray.origin, ray.direction, s.center, s.radius, ray.tmin, tNearest)) {
-        tNearest = *t;
-        nearest = int(i);
+    if (usesLanes()) { // the same answer as the loop below, four spheres at a time
+      if (const std::optional<SphereHit> h = lanes.intersect(ray)) {
+        tNearest = h->t;
+        nearest = h->sphere;
+      }
+    } else {
+      // Find the nearest sphere: each hit shrinks the interval, so later spheres must be nearer to count.
+      for (std::size_t i = 0; i < spheres.size(); ++i) {
+        const Sphere& s = spheres[i];
+        if (auto t = intersectSphere(ray.origin, ray.direction, s.center, s.radius, ray.tmin, tNearest)) {
+          tNearest = *t;
+          nearest = int(i);
+        }
+      }
+    }
+    // Then the triangles, numbered after the spheres, in the same way.
+    for (std::size_t j = 0; j < triangles.size(); ++j) {
+      const auto [p0, p1, p2] = triangleVertices(j);
+      if (auto h = intersectTriangle(ray.origin, ray.direction, p0, p1, p2, ray.tmin, tNearest)) {
+        tNearest = h->t;
+        nearest = int(spheres.size() + j);
       }
     }
   }
   if (nearest < 0)
     return std::nullopt;
 
-  return makeHit(spheres, ray, tNearest, nearest);
+  return makeHit(*this, ray, tNearest, nearest);
 }
 // [intersect]
 
@@ -87,24 +138,51 @@ bool Scene::usesLanes() const
   ++tRayCount;
   if (usesAccelerator())
     return accelerator.occluded(ray);
-  if (usesLanes())
-    return lanes.occluded(ray);
-  for (const Sphere& s : spheres)
-    if (intersectSphere(ray.origin, ray.direction, s.center, s.radius, ray.tmin, ray.tmax))
+  if (usesLanes()) {
+    if (lanes.occluded(ray))
       return true;
+  } else {
+    for (const Sphere& s : spheres)
+      if (intersectSphere(ray.origin, ray.direction, s.center, s.radius, ray.tmin, ray.tmax))
+        return true;
+  }
+  for (std::size_t j = 0; j < triangles.size(); ++j) {
+    const auto [p0, p1, p2] = triangleVertices(j);
+    if (intersectTriangle(ray.origin, ray.direction, p0, p1, p2, ray.tmin, ray.tmax))
+      return true;
+  }
   return false;
 }
 // [occluded]
+
+std::optional<Real> Scene::intersectPrimitive(const Ray& ray, int primitive) const
+{
+  if (std::size_t(primitive) < spheres.size()) {
+    const Sphere& s = spheres[std::size_t(primitive)];
+    return intersectSphere(ray.origin, ray.direction, s.center, s.radius, ray.tmin, ray.tmax);
+  }
+  const auto [p0, p1, p2] = triangleVertices(std::size_t(primitive) - spheres.size());
+  if (const auto h = intersectTriangle(ray.origin, ray.direction, p0, p1, p2, ray.tmin, ray.tmax))
+    return h->t;
+  return std::nullopt;
+}
+
+int Scene::materialOf(int primitive) const
+{
+  if (std::size_t(primitive) < spheres.size())
+    return spheres[std::size_t(primitive)].material;
+  return triangles[std::size_t(primitive) - spheres.size()].material;
+}
 
 TracedHit Scene::intersectWithWork(const Ray& ray) const
 {
   if (usesAccelerator()) {
     ++tRayCount;
     const BvhTracedHit h = accelerator.intersectWithWork(ray);
-    return TracedHit{h.hit ? makeHit(spheres, ray, h.hit->t, h.hit->primitive) : std::nullopt, h.work};
+    return TracedHit{h.hit ? makeHit(*this, ray, h.hit->t, h.hit->primitive) : std::nullopt, h.work};
   }
-  // One by one: every sphere is tested.
-  return TracedHit{intersect(ray), BvhWork{0, std::uint32_t(spheres.size())}};
+  // One by one: every primitive is tested.
+  return TracedHit{intersect(ray), BvhWork{0, std::uint32_t(primitiveCount())}};
 }
 
 TracedOcclusion Scene::occludedWithWork(const Ray& ray) const
@@ -116,9 +194,9 @@ TracedOcclusion Scene::occludedWithWork(const Ray& ray) const
   }
   // One by one, up to the first blocker.
   std::uint32_t tested = 0;
-  for (const Sphere& s : spheres) {
+  for (std::size_t i = 0; i < primitiveCount(); ++i) {
     ++tested;
-    if (intersectSphere(ray.origin, ray.direction, s.center, s.radius, ray.tmin, ray.tmax))
+    if (intersectPrimitive(ray, int(i)))
       return TracedOcclusion{true, BvhWork{0, tested}};
   }
   return TracedOcclusion{false, BvhWork{0, tested}};

@@ -1,5 +1,6 @@
 /// @file scene.h
-/// @brief The scene: camera settings, materials, spheres and lights, its intersection queries, and its loader.
+/// @brief The scene: camera settings, materials, spheres, triangle meshes and lights, its intersection queries, and
+/// its loader.
 #pragma once
 
 #include "geometry/bvh.h"
@@ -10,7 +11,9 @@
 #include "geometry/ray.h"
 #include "geometry/sphere.h"
 #include "geometry/sphere_lanes.h"
+#include "geometry/triangle.h"
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -35,13 +38,18 @@ struct CameraSpec {
 /// The film keeps about 56 bytes a pixel, so this bounds its memory at about 3.5 GiB.
 inline constexpr std::int64_t kMaxPixels = std::int64_t(1) << 26;
 
-/// Scenes with at most this many spheres are searched as a flat list; larger ones through a BVH. Below the
-/// crossover a flat loop beats a tree (no boxes to test, no stack). Measured with `tools/bvh_bench crossover` on the
-/// random-spheres scene, one thread: the tree overtakes the one-by-one loop at about 15 spheres for camera rays and
-/// 8 for shadow rays; for chapter 4's mix (1.3 shadow rays per camera ray) at 10. So the Cornell box (9) stays a
-/// flat list. (Four at a time, the list would hold its own against the tree up to about 20 spheres, but the
-/// threshold is the one-by-one loop's, which every CPU runs.)
-inline constexpr std::size_t kFlatListMaxSpheres = 9;
+/// Scenes with at most this many primitives (spheres and triangles) are searched as a flat list; larger ones through
+/// a BVH. Below the crossover a flat loop beats a tree (no boxes to test, no stack). Measured with
+/// `tools/bvh_bench crossover` on the random-spheres scene, one thread: the tree overtakes the one-by-one loop at
+/// about 15 spheres for camera rays and 8 for shadow rays; for chapter 4's mix (1.3 shadow rays per camera ray) at
+/// 10. So the Cornell box (9) stays a flat list. (Four at a time, the list would hold its own against the tree up
+/// to about 20 spheres, but the threshold is the one-by-one loop's, which every CPU runs.) A triangle test costs
+/// about what a sphere test does, so triangles count as spheres here.
+inline constexpr std::size_t kFlatListMaxPrimitives = 9;
+
+/// Most primitives (spheres and triangles) a scene may hold: 2³⁰ − 1, what the BVH's nodes can number
+/// (BvhWideNode::kIndexMask). The loader refuses more.
+inline constexpr std::size_t kMaxPrimitives = BvhWideNode::kIndexMask;
 
 /// A flat list of at least this many spheres tests them four at a time (sphere_lanes.h) where the CPU has AVX2;
 /// a shorter one one by one, whose early exits (a sphere behind the ray, a miss without a square root) are then
@@ -54,31 +62,49 @@ inline constexpr std::size_t kLanesMinSpheres = 7;
 /// Scene::intersectWithWork's answer: the hit, and the work the query did.
 struct TracedHit {
   std::optional<Hit> hit; ///< As Scene::intersect.
-  BvhWork work;           ///< Boxes and spheres tested (no boxes when the scene is searched one by one).
+  BvhWork work;           ///< Boxes and primitives tested (no boxes when the scene is searched one by one).
 };
 
 /// Scene::occludedWithWork's answer: the occlusion, and the work the query did.
 struct TracedOcclusion {
   bool occluded = false; ///< As Scene::occluded.
-  BvhWork work;          ///< Boxes and spheres tested until the answer was known.
+  BvhWork work;          ///< Boxes and primitives tested until the answer was known.
+};
+
+/// A triangle mesh of the scene file: which of Scene::triangles are its own, and how it is shaded.
+struct Mesh {
+  std::string source;               ///< The file it was read from, or "inline" (for messages and the plan).
+  int material = 0;                 ///< Index into Scene::materials, shared by all its triangles.
+  bool smooth = false;              ///< Shaded with interpolated vertex normals (Scene::vertexNormals).
+  std::uint32_t firstTriangle = 0;  ///< Its triangles are Scene::triangles[firstTriangle, + triangleCount).
+  std::uint32_t triangleCount = 0;  ///< ≥ 1.
 };
 
 /// A loaded, validated scene. Immutable while rendering, so it is shared by all threads without locks.
+///
+/// Its primitives are numbered spheres first, then triangles: sphere i is primitive i, triangle j is primitive
+/// spheres.size() + j (Hit::primitive, the BVH, the light sampler all use this numbering).
 struct Scene {
   std::string fileName;            ///< Where it came from (for messages).
   CameraSpec camera;               ///< The camera.
   Color background{0};             ///< Radiance of every ray that leaves the scene, ≥ 0.
   Color ambient{0};                ///< The lecture's ambient term (chapters 3 to 5), ≥ 0.
-  std::vector<Material> materials; ///< Indexed by Sphere::material.
-  std::vector<Sphere> spheres;     ///< At least one.
+  std::vector<Material> materials; ///< Indexed by Sphere::material and Triangle::material.
+  std::vector<Sphere> spheres;     ///< The spheres (a scene has at least one sphere or one triangle).
+  std::vector<Mesh> meshes;        ///< The triangle meshes, in the order of the file.
+  std::vector<Vec3> vertices;      ///< Every mesh's vertices, world space (their transforms applied), all finite.
+  /// Unit vertex normals, indexed as `vertices`, for the vertices of smooth meshes (0 for the others); empty when no
+  /// mesh is smooth.
+  std::vector<Vec3> vertexNormals;
+  std::vector<Triangle> triangles; ///< Every mesh's triangles, none degenerate (zero area).
   std::vector<PointLight> lights;  ///< Point lights (may be empty).
   std::vector<std::string> warnings; ///< Non-fatal remarks from the loader (an unused material, say).
 
-  /// The BVH over `spheres`, or an empty one. Filled by buildAccelerator(), which the loader calls.
-  /// Contract: intersect and occluded use it only while it covers exactly spheres.size() spheres (see
-  /// usesAccelerator), and otherwise search the spheres one by one, with the same answers. So a scene filled by
-  /// hand works without it; but whoever changes `spheres` after building it must call buildAccelerator() again
-  /// (a tree over moved spheres of the same count would answer for the old ones).
+  /// The BVH over the spheres and triangles, or an empty one. Filled by buildAccelerator(), which the loader calls.
+  /// Contract: intersect and occluded use it only while it covers exactly primitiveCount() primitives (see
+  /// usesAccelerator), and otherwise search the primitives one by one, with the same answers. So a scene filled by
+  /// hand works without it; but whoever changes the geometry after building it must call buildAccelerator() again
+  /// (a tree over moved primitives of the same count would answer for the old ones).
   Bvh accelerator;
 
   /// The spheres four to a group, for a scene the BVH does not take (of kLanesMinSpheres or more), where the CPU
@@ -86,20 +112,38 @@ struct Scene {
   /// contract as `accelerator` (see usesLanes).
   SphereLanes lanes;
 
-  /// Builds `accelerator` over `spheres` when there are more than kFlatListMaxSpheres, and empties it otherwise;
-  /// then `lanes` over the spheres of a scene without a tree of at least kLanesMinSpheres, where the CPU tests four
-  /// spheres at once, and empties it otherwise.
+  /// Builds `accelerator` over the spheres and triangles when there are more than kFlatListMaxPrimitives, and
+  /// empties it otherwise; then `lanes` over the spheres of a scene without a tree of at least kLanesMinSpheres,
+  /// where the CPU tests four spheres at once, and empties it otherwise.
   /// Not thread-safe: call it before rendering (no query ever builds anything, so queries are thread-safe).
   void buildAccelerator();
 
-  /// True when intersect and occluded go through `accelerator`, false when they loop over the spheres.
+  /// Spheres and triangles together.
+  std::size_t primitiveCount() const { return spheres.size() + triangles.size(); }
+
+  /// True when intersect and occluded go through `accelerator`, false when they loop over the primitives.
   bool usesAccelerator() const;
 
   /// True when intersect and occluded, without a tree, test the spheres four at a time through `lanes`.
   bool usesLanes() const;
 
-  /// The nearest hit of the ray inside [ray.tmin, ray.tmax), or nothing. Counts one ray (see rayCount()).
+  /// The nearest hit of the ray inside [ray.tmin, ray.tmax), or nothing: the nearest primitive, the lowest number
+  /// on a tie. Counts one ray (see rayCount()).
   std::optional<Hit> intersect(const Ray& ray) const;
+
+  /// Where the ray meets primitive `primitive` alone inside [ray.tmin, ray.tmax) (the test intersect applies to
+  /// it), or nothing. Counts no ray. For light sampling: where a shadow ray meets the light it was aimed at.
+  std::optional<Real> intersectPrimitive(const Ray& ray, int primitive) const;
+
+  /// The material of primitive `primitive` (a sphere or a triangle), an index into `materials`.
+  int materialOf(int primitive) const;
+
+  /// The vertices of triangle `triangle` (an index into `triangles`, not a primitive number).
+  std::array<Vec3, 3> triangleVertices(std::size_t triangle) const
+  {
+    const Triangle& tri = triangles[triangle];
+    return {vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]};
+  }
 
   /// True when anything blocks the ray inside [ray.tmin, ray.tmax): the shadow-ray query, which may stop at
   /// the first blocker it finds. Counts one ray.
@@ -121,11 +165,13 @@ public:
   using std::runtime_error::runtime_error;
 };
 
-/// Reads and validates a scene file (a regular file of at most 64 MiB). @throws SceneError naming the file, the
-/// place and the fault; the message is one printable line.
+/// Reads and validates a scene file (a regular file of at most 64 MiB), and the mesh files it names (relative to
+/// the scene file's folder). @throws SceneError naming the file, the place and the fault; the message is one
+/// printable line.
 Scene loadScene(const std::string& path);
 
-/// Parses and validates scene text; `fileName` is used only in messages. @throws SceneError.
+/// Parses and validates scene text; `fileName` is used in messages and to find mesh files (relative to its
+/// folder). @throws SceneError.
 Scene parseScene(std::string_view text, const std::string& fileName);
 
 /// Rays this thread has traced through Scene::intersect and Scene::occluded since it started.

@@ -2,6 +2,8 @@
 // once, as "FILE:LINE:COLUMN: /json/path: what is wrong", and nothing is half-loaded.
 #include "scene/scene.h"
 
+#include "scene/mesh_file.h"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -616,6 +618,213 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
   return m;
 }
 
+// ---- Meshes -----------------------------------------------------------------------------------------------
+
+// A mesh's "transform": scale, then rotate, then translate.
+struct Transform {
+  Vec3 scale{1};
+  Vec3 axis{0, 0, 1};
+  SinCos<Real> rotation{0, 1}; // sin and cos of the angle
+  Vec3 translate{0};
+
+  Vec3 rotate(const Vec3& v) const // Rodrigues' formula about the unit axis
+  {
+    return v * rotation.cos + glm::cross(axis, v) * rotation.sin + axis * (glm::dot(axis, v) * (1 - rotation.cos));
+  }
+  Vec3 point(const Vec3& p) const { return rotate(p * scale) + translate; }
+  // A normal goes through the inverse transpose: for a scale, a division (then it is normalised again).
+  Vec3 normal(const Vec3& n) const { return rotate(n / scale); }
+  // A negative scale mirrors the mesh, which turns its triangles over: their winding is then reversed.
+  bool mirrors() const { return scale.x * scale.y * scale.z < 0; }
+};
+
+Transform readTransform(const Reader& r, const Json& j, const Path& path)
+{
+  r.object(j, path);
+  r.onlyKeys(j, path, {"scale", "rotate", "translate"});
+  Transform t;
+  if (j.contains("scale")) {
+    const Json& js = j["scale"];
+    t.scale = js.is_array() ? r.vec3(js, path / "scale") : Vec3(r.number(js, path / "scale"));
+    if (t.scale.x == 0 || t.scale.y == 0 || t.scale.z == 0)
+      r.fail(path / "scale", "a scale of 0 flattens the mesh; every factor must be non-zero, got " + js.dump());
+  }
+  if (j.contains("rotate")) {
+    const Path rp = path / "rotate";
+    const Json& jr = r.object(j["rotate"], rp);
+    r.onlyKeys(jr, rp, {"axis", "degrees"});
+    t.axis = safeNormalize(r.vec3(r.required(jr, rp, "axis"), rp / "axis"), Vec3(0));
+    if (t.axis == Vec3(0))
+      r.fail(rp / "axis", "the rotation axis must not be zero, got " + jr["axis"].dump());
+    const Real degrees = r.number(r.required(jr, rp, "degrees"), rp / "degrees");
+    // sin and cos of 2π·u with u = degrees/360 in [0, 1): exact at the quarter turns (a box turned by 90 degrees
+    // keeps its corners exactly), which sin and cos of the angle in radians are not.
+    Real turn = std::fmod(degrees, Real(360)) / 360;
+    if (turn < 0)
+      turn += 1;
+    t.rotation = sinCos2Pi(std::min(turn, Real(1)));
+  }
+  if (j.contains("translate"))
+    t.translate = r.vec3(j["translate"], path / "translate");
+  return t;
+}
+
+// The inline form's vertices, triangles and normals.
+MeshData readInlineMesh(const Reader& r, const Json& j, const Path& path)
+{
+  MeshData data;
+  const Json& vertices = r.required(j, path, "vertices");
+  if (!vertices.is_array() || vertices.size() < 3)
+    r.fail(path / "vertices", "expected an array of at least 3 vertices [x, y, z], got " + Reader::describe(vertices));
+  data.positions.reserve(vertices.size());
+  for (std::size_t v = 0; v < vertices.size(); ++v)
+    data.positions.push_back(r.vec3(vertices[v], path / "vertices" / v));
+  const Json& triangles = r.required(j, path, "triangles");
+  if (!triangles.is_array() || triangles.empty())
+    r.fail(path / "triangles", "expected an array of at least one triangle [i, j, k], got " +
+                                   Reader::describe(triangles));
+  data.triangles.reserve(triangles.size());
+  for (std::size_t k = 0; k < triangles.size(); ++k) {
+    const Path tp = path / "triangles" / k;
+    if (!triangles[k].is_array() || triangles[k].size() != 3)
+      r.fail(tp, "expected a triangle as 3 vertex indices [i, j, k], got " + Reader::describe(triangles[k]));
+    std::array<std::uint32_t, 3> tri{};
+    for (std::size_t c = 0; c < 3; ++c)
+      tri[c] = std::uint32_t(r.wholeNumber(triangles[k][c], tp / c, 0, std::int64_t(vertices.size()) - 1));
+    data.triangles.push_back(tri);
+  }
+  if (j.contains("normals")) {
+    const Json& normals = j["normals"];
+    if (!normals.is_array() || normals.size() != vertices.size())
+      r.fail(path / "normals", "expected one normal [x, y, z] per vertex (" + std::to_string(vertices.size()) +
+                                   "), got " + Reader::describe(normals));
+    for (std::size_t v = 0; v < normals.size(); ++v) {
+      const Vec3 n = r.vec3(normals[v], path / "normals" / v);
+      if (n == Vec3(0))
+        r.fail(path / "normals" / v, "a normal must not be zero");
+      data.normals.push_back(n);
+    }
+  }
+  return data;
+}
+
+// [vertexNormals]
+// Smooth shading's vertex normals: each vertex's is the sum of its triangles' (p1 − p0) × (p2 − p0), whose length
+// is twice the triangle's area, so larger triangles weigh more (the area-weighted average), normalised.
+std::vector<Vec3> areaWeightedNormals(const std::vector<Vec3>& positions,
+                                      const std::vector<std::array<std::uint32_t, 3>>& triangles)
+{
+  std::vector<Vec3> normals(positions.size(), Vec3(0));
+  for (const auto& tri : triangles) {
+    const Vec3 n = glm::cross(positions[tri[1]] - positions[tri[0]], positions[tri[2]] - positions[tri[0]]);
+    for (std::uint32_t v : tri)
+      normals[v] += n;
+  }
+  for (Vec3& n : normals)
+    n = safeNormalize(n, Vec3(0, 0, 1));
+  return normals;
+}
+// [vertexNormals]
+
+// One entry of "meshes": read (from its file or inline), transformed, checked, and appended to the scene.
+template <class MaterialOf>
+void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& materialOf, Scene& scene,
+              const std::string& sceneFile)
+{
+  r.object(j, path);
+  const bool fromFile = j.contains("file");
+  if (fromFile)
+    r.onlyKeys(j, path, {"file", "material", "transform", "smooth"});
+  else
+    r.onlyKeys(j, path, {"vertices", "triangles", "normals", "material", "transform", "smooth"});
+  if (!fromFile && !j.contains("vertices"))
+    r.fail(path, "a mesh needs \"file\" (an .obj or .ply file) or inline \"vertices\" and \"triangles\"");
+  Mesh mesh;
+  mesh.material = materialOf(j, path);
+  if (j.contains("smooth")) {
+    if (!j["smooth"].is_boolean())
+      r.fail(path / "smooth", "expected true or false, got " + Reader::describe(j["smooth"]));
+    mesh.smooth = j["smooth"].get<bool>();
+  }
+  const Transform transform = j.contains("transform") ? readTransform(r, j["transform"], path / "transform")
+                                                       : Transform{};
+  MeshData data;
+  if (fromFile) {
+    const std::string file = r.string(j["file"], path / "file");
+    if (file.empty())
+      r.fail(path / "file", "the file name is empty");
+    // Relative to the scene file's folder, so a scene and its models move together.
+    const std::filesystem::path resolved = std::filesystem::path(sceneFile).parent_path() / file;
+    mesh.source = file;
+    try {
+      data = readMeshFile(resolved.string());
+    } catch (const MeshError& e) {
+      r.fail(path / "file", e.what());
+    }
+  } else {
+    mesh.source = "inline";
+    data = readInlineMesh(r, j, path);
+  }
+
+  // Transform, drop what has no area, and append.
+  const auto base = std::uint32_t(scene.vertices.size());
+  if (std::uint64_t(base) + data.positions.size() > std::uint64_t(UINT32_MAX))
+    r.fail(path, "the scene has more than 4,294,967,295 mesh vertices");
+  for (Vec3& p : data.positions) {
+    p = transform.point(p);
+    if (!isFinite(p))
+      r.fail(path / "transform", "the transform takes a vertex beyond the range of " +
+                                     std::string(sizeof(Real) == 4 ? "float" : "double"));
+  }
+  mesh.firstTriangle = std::uint32_t(scene.triangles.size());
+  std::size_t degenerate = 0;
+  std::vector<std::array<std::uint32_t, 3>> kept;
+  kept.reserve(data.triangles.size());
+  for (std::array<std::uint32_t, 3> tri : data.triangles) {
+    if (transform.mirrors())
+      std::swap(tri[1], tri[2]);
+    if (!(triangleDoubleArea(data.positions[tri[0]], data.positions[tri[1]], data.positions[tri[2]]) > 0)) {
+      ++degenerate;
+      continue;
+    }
+    kept.push_back(tri);
+  }
+  if (kept.empty())
+    r.fail(path, "every one of its " + std::to_string(data.triangles.size()) +
+                     " triangles is degenerate (zero area): nothing to render");
+  if (degenerate > 0)
+    scene.warnings.push_back(printable(r.where(path) + ": " + std::to_string(degenerate) +
+                                       (degenerate == 1 ? " degenerate (zero-area) triangle" :
+                                                          " degenerate (zero-area) triangles") +
+                                       " dropped (of " + std::to_string(data.triangles.size()) + ")"));
+
+  // Smooth shading: the file's normals, transformed, if every one has a direction; else computed from the faces.
+  if (mesh.smooth) {
+    std::vector<Vec3> normals;
+    bool usable = !data.normals.empty();
+    for (const Vec3& n : data.normals) {
+      normals.push_back(safeNormalize(transform.normal(n), Vec3(0)));
+      usable = usable && normals.back() != Vec3(0);
+    }
+    if (!data.normals.empty() && !usable)
+      scene.warnings.push_back(printable(r.where(path) + ": some of its normals are zero or not finite: smooth " +
+                                         "normals computed from the faces instead"));
+    if (!usable)
+      normals = areaWeightedNormals(data.positions, kept);
+    scene.vertexNormals.resize(base, Vec3(0));
+    scene.vertexNormals.insert(scene.vertexNormals.end(), normals.begin(), normals.end());
+  } else if (!scene.vertexNormals.empty()) {
+    scene.vertexNormals.resize(base + data.positions.size(), Vec3(0));
+  }
+
+  const auto meshIndex = std::uint32_t(scene.meshes.size());
+  for (const auto& tri : kept)
+    scene.triangles.push_back(Triangle{{base + tri[0], base + tri[1], base + tri[2]}, mesh.material, meshIndex});
+  scene.vertices.insert(scene.vertices.end(), data.positions.begin(), data.positions.end());
+  mesh.triangleCount = std::uint32_t(kept.size());
+  scene.meshes.push_back(std::move(mesh));
+}
+
 } // namespace
 
 namespace {
@@ -683,7 +892,7 @@ Scene readScene(std::string_view text, const std::string& fileName)
   Scene scene;
   scene.fileName = fileName;
   r.object(root, top);
-  r.onlyKeys(root, top, {"camera", "background", "ambient", "materials", "spheres", "lights"});
+  r.onlyKeys(root, top, {"camera", "background", "ambient", "materials", "spheres", "meshes", "lights"});
 
   readCamera(r, r.required(root, top, "camera"), top / "camera", scene.camera);
   if (root.contains("background"))
@@ -701,35 +910,54 @@ Scene readScene(std::string_view text, const std::string& fileName)
     }
   }
 
-  // Spheres.
-  const Json& spheres = r.required(root, top, "spheres");
-  if (!spheres.is_array())
-    r.fail(top / "spheres", "expected an array of spheres, got " + Reader::describe(spheres));
-  if (spheres.empty())
-    r.fail(top / "spheres", "the scene is empty: give at least one sphere");
+  // Spheres (optional: a scene needs at least one sphere or one triangle).
   std::unordered_map<std::string, int> materialIndex; // name -> index, so a large scene loads in linear time
   for (std::size_t i = 0; i < materialNames.size(); ++i)
     materialIndex.emplace(materialNames[i], int(i));
   std::vector<bool> used(materialNames.size(), false);
-  for (std::size_t i = 0; i < spheres.size(); ++i) {
-    const Path p = top / "spheres" / i;
-    const Json& js = r.object(spheres[i], p);
-    r.onlyKeys(js, p, {"center", "radius", "material"});
-    Sphere s;
-    s.center = r.vec3(r.required(js, p, "center"), p / "center");
-    s.radius = r.number(r.required(js, p, "radius"), p / "radius");
-    if (!(s.radius > 0))
-      r.fail(p / "radius", "the radius must be greater than 0, got " + js["radius"].dump());
-    const std::string name = r.string(r.required(js, p, "material"), p / "material");
+  // The material a sphere or mesh names under `p`/"material".
+  auto material = [&](const Json& j, const Path& p) {
+    const std::string name = r.string(r.required(j, p, "material"), p / "material");
     const auto found = materialIndex.find(name);
     if (found == materialIndex.end())
       r.fail(p / "material", "undefined material '" + shorten(name) + "'" + suggestion(name, materialNames) +
                                  (materialNames.empty() ? "; the scene defines no materials"
                                                         : "; defined: " + joinQuoted(materialNames)));
-    s.material = found->second;
-    used[std::size_t(s.material)] = true;
-    scene.spheres.push_back(s);
+    used[std::size_t(found->second)] = true;
+    return found->second;
+  };
+  if (root.contains("spheres")) {
+    const Json& spheres = root["spheres"];
+    if (!spheres.is_array())
+      r.fail(top / "spheres", "expected an array of spheres, got " + Reader::describe(spheres));
+    for (std::size_t i = 0; i < spheres.size(); ++i) {
+      const Path p = top / "spheres" / i;
+      const Json& js = r.object(spheres[i], p);
+      r.onlyKeys(js, p, {"center", "radius", "material"});
+      Sphere s;
+      s.center = r.vec3(r.required(js, p, "center"), p / "center");
+      s.radius = r.number(r.required(js, p, "radius"), p / "radius");
+      if (!(s.radius > 0))
+        r.fail(p / "radius", "the radius must be greater than 0, got " + js["radius"].dump());
+      s.material = material(js, p);
+      scene.spheres.push_back(s);
+    }
   }
+
+  // Meshes.
+  if (root.contains("meshes")) {
+    const Json& meshes = root["meshes"];
+    if (!meshes.is_array())
+      r.fail(top / "meshes", "expected an array of meshes, got " + Reader::describe(meshes));
+    for (std::size_t i = 0; i < meshes.size(); ++i)
+      readMesh(r, meshes[i], top / "meshes" / i, material, scene, fileName);
+  }
+  if (scene.spheres.empty() && scene.triangles.empty())
+    r.fail(root.contains("spheres") ? top / "spheres" : top,
+           "the scene is empty: give at least one sphere (\"spheres\") or one mesh (\"meshes\")");
+  if (scene.primitiveCount() > kMaxPrimitives)
+    r.fail(top / "meshes", "the scene has " + std::to_string(scene.primitiveCount()) + " spheres and triangles, more " +
+                               "than the " + std::to_string(kMaxPrimitives) + " raylife allows");
 
   // Lights.
   if (root.contains("lights")) {
@@ -757,10 +985,10 @@ Scene readScene(std::string_view text, const std::string& fileName)
   for (std::size_t i = 0; i < materialNames.size(); ++i)
     if (!used[i] && ++unused <= kMaxUnusedWarnings)
       scene.warnings.push_back(printable(r.where(top / "materials" / materialNames[i]) + ": material '" +
-                                         shorten(materialNames[i]) + "' is defined but no sphere uses it"));
+                                         shorten(materialNames[i]) + "' is defined but no sphere or mesh uses it"));
   if (unused > kMaxUnusedWarnings)
     scene.warnings.push_back(printable(fileName + ": /materials: " + std::to_string(unused - kMaxUnusedWarnings) +
-                                       " more materials are defined but no sphere uses them"));
+                                       " more materials are defined but no sphere or mesh uses them"));
   return scene;
 }
 } // namespace

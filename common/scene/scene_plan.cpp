@@ -10,8 +10,9 @@ ScenePlan planScene(const Scene& scene, unsigned uses)
   plan.lanes = scene.usesLanes();
   if (uses & kUsesPointLights)
     plan.pointLights = scene.lights.size();
-  for (const Sphere& s : scene.spheres) {
-    const Material& m = scene.materials[std::size_t(s.material)];
+  plan.triangles = scene.triangles.size();
+  for (std::size_t i = 0; i < scene.primitiveCount(); ++i) {
+    const Material& m = scene.materials[std::size_t(scene.materialOf(int(i)))];
     plan.emitters += (uses & kUsesEmission) && m.isEmissive();
     plan.glass = plan.glass || ((uses & kUsesGlass) && m.type == MaterialType::Glass);
   }
@@ -24,10 +25,11 @@ std::vector<std::string> describePlan(const ScenePlan& plan)
   auto count = [](std::size_t n, const char* one, const char* many) {
     return std::to_string(n) + " " + (n == 1 ? one : many);
   };
-  const std::string bvhFrom = std::to_string(kFlatListMaxSpheres + 1);
+  const std::string bvhFrom = std::to_string(kFlatListMaxPrimitives + 1);
   std::vector<std::string> lines;
   lines.push_back("plan: " + count(plan.spheres, "sphere", "spheres") +
-                  (plan.bvh ? " -> BVH (flat list up to " + std::to_string(kFlatListMaxSpheres) + ")"
+                  (plan.triangles > 0 ? ", " + count(plan.triangles, "triangle", "triangles") : std::string()) +
+                  (plan.bvh ? " -> BVH (flat list up to " + std::to_string(kFlatListMaxPrimitives) + ")"
                             : std::string(" -> flat list") + (plan.lanes ? ", four spheres at a time" : "") +
                                   " (BVH from " + bvhFrom + ")"));
   const std::string lights =

@@ -13,7 +13,7 @@ namespace raylife {
 
 /// What of a scene a chapter reads, so the runner can say once what it ignores.
 enum Feature : unsigned {
-  kUsesSpheres = 1u << 0,       ///< Intersects the spheres.
+  kUsesSpheres = 1u << 0,       ///< Intersects the scene's surfaces: its spheres and its triangle meshes.
   kUsesColors = 1u << 1,        ///< Reads material colours.
   kUsesPointLights = 1u << 2,   ///< Reads point lights.
   kUsesAmbient = 1u << 3,       ///< Reads the ambient term.
@@ -30,11 +30,13 @@ enum Feature : unsigned {
 /// without changing its expected value.
 struct ScenePlan {
   std::size_t spheres = 0;      ///< Spheres in the scene.
-  bool bvh = false;             ///< True: queries go through the BVH; false: a flat loop (≤ kFlatListMaxSpheres).
+  std::size_t triangles = 0;    ///< Triangles in the scene (all its meshes').
+  bool bvh = false;             ///< True: queries go through the BVH; false: a flat loop (≤ kFlatListMaxPrimitives).
   bool lanes = false;           ///< The flat loop tests four spheres at once (Scene::usesLanes; CPUs with AVX2).
   std::size_t pointLights = 0;  ///< Point lights in the scene (counted only if the chapter reads them).
-  std::size_t emitters = 0;     ///< Spheres with an emissive material (counted only if the chapter reads emission).
-  bool glass = false;           ///< Some sphere is glass and the chapter treats glass as glass.
+  std::size_t emitters = 0;     ///< Spheres and triangles with an emissive material (counted only if the chapter
+                                ///< reads emission).
+  bool glass = false;           ///< Some sphere or triangle is glass and the chapter treats glass as glass.
   bool backgroundBlack = true;  ///< The background is black, or the chapter does not read it.
   /// Light sampling has something to sample: at least one emitter or point light. Without it chapters 7 and 8
   /// do BSDF sampling only (a light sampler with no light returns nothing, so this is exact).

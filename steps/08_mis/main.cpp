@@ -66,7 +66,7 @@ Color trace(const LightSampler& lights, bool sampleLights, Heuristic heuristic, 
         L += beta * m.emission;
       else
         L += beta * m.emission *
-             misWeight(heuristic, bsdfPdfPrev, lights.pdf(previousPoint, hit->sphere));
+             misWeight(heuristic, bsdfPdfPrev, lights.pdf(previousPoint, hit->primitive, hit->point));
     }
     if (bounce == maxDepth)
       break;

@@ -8,7 +8,7 @@
 // flattened into one array, visited front to back, and a shadow ray stops at its first blocker.
 //
 // The scene uses the tree from here on, in every chapter: Scene::intersect and Scene::occluded answer through it
-// when the scene has more than kFlatListMaxSpheres spheres (below that a plain loop is faster), with exactly the
+// when the scene has more than kFlatListMaxPrimitives spheres (below that a plain loop is faster), with exactly the
 // answers of the loop, so no earlier chapter's image changes.
 //
 // This chapter's picture is the work itself: on the left the scene as chapter 4 shades it, on the right each

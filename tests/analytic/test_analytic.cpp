@@ -117,10 +117,10 @@ Expectation expectation(const Scene& scene, int k, const std::function<Color(con
   for (int y = 0; y < camera.height(); ++y)
     for (int x = 0; x < camera.width(); ++x) {
       const auto hits = primaryHits(scene, camera, x, y, k);
-      const int first = hits[0] ? hits[0]->sphere : -1;
+      const int first = hits[0] ? hits[0]->primitive : -1;
       Color sum(0), sumVar(0);
       for (const auto& h : hits) {
-        if ((h ? h->sphere : -1) != first)
+        if ((h ? h->primitive : -1) != first)
           e.use[std::size_t(y * camera.width() + x)] = false;
         sum += value(h);
         if (perSampleVariance)
@@ -183,7 +183,7 @@ TEST_CASE("a diffuse floor under a spherical light: L = ρ Le (R/D)² cosθ (sof
   auto radiance = [&](const std::optional<Hit>& h) -> Color {
     if (!h)
       return Color(0);
-    if (h->sphere == 1)
+    if (h->primitive == 1)
       return Le;
     const Vec3 toLamp = lamp.center - h->point;
     const Real D = glm::length(toLamp);
@@ -193,7 +193,7 @@ TEST_CASE("a diffuse floor under a spherical light: L = ρ Le (R/D)² cosθ (sof
   };
   const int spp = 1024;
   Expectation e = expectation(s, 4, radiance, [&](const std::optional<Hit>& h) -> Color {
-    if (!h || h->sphere == 1)
+    if (!h || h->primitive == 1)
       return Color(0);
     const Color L = radiance(h);
     return (ground.color * Le * L - L * L) / Real(spp); // variance of the mean of spp samples

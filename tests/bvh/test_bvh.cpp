@@ -428,7 +428,7 @@ TEST_CASE("the scene uses the BVH above the threshold - the loop below it or whe
     REQUIRE(a.has_value() == b.has_value());
     if (a) {
       REQUIRE(a->t == b->t);
-      REQUIRE(a->sphere == b->sphere);
+      REQUIRE(a->primitive == b->primitive);
       REQUIRE(a->point == b->point);
       REQUIRE(a->normal == b->normal);
       REQUIRE(a->pointError == b->pointError);
@@ -445,11 +445,11 @@ TEST_CASE("the scene uses the BVH above the threshold - the loop below it or whe
   CHECK_FALSE(tree.usesAccelerator());
   const auto hit = tree.intersect(Ray{Vec3(0, 60, 0), Vec3(0, -1, 0)});
   REQUIRE(hit);
-  CHECK(hit->sphere == int(tree.spheres.size()) - 1);
+  CHECK(hit->primitive == int(tree.spheres.size()) - 1);
 
-  // The threshold: at most kFlatListMaxSpheres spheres are searched one by one.
+  // The threshold: at most kFlatListMaxPrimitives spheres are searched one by one.
   Scene small;
-  small.spheres = std::vector<Sphere>(kFlatListMaxSpheres, Sphere{});
+  small.spheres = std::vector<Sphere>(kFlatListMaxPrimitives, Sphere{});
   small.buildAccelerator();
   CHECK_FALSE(small.usesAccelerator());
   small.spheres.push_back(Sphere{});
@@ -461,7 +461,7 @@ TEST_CASE("the loader builds the accelerator")
 {
   std::string text = R"({ "camera": { "eye": [0, 0, 5], "focal": [0, 0, 0] },
                           "materials": { "m": { "type": "diffuse" } }, "spheres": [)";
-  for (std::size_t i = 0; i <= kFlatListMaxSpheres; ++i)
+  for (std::size_t i = 0; i <= kFlatListMaxPrimitives; ++i)
     text += (i ? ", " : "") + std::string(R"({ "center": [)") + std::to_string(i) + R"(, 0, 0], "radius": 0.25, "material": "m" })";
   text += "] }";
   const Scene scene = parseScene(text, "many.json");

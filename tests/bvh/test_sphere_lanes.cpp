@@ -155,7 +155,7 @@ TEST_CASE("the scene's flat list goes through the lanes where the CPU tests four
   Random random(8);
   Scene lanes;
   lanes.materials.push_back(Material{});
-  lanes.spheres = groundScene(random, int(kFlatListMaxSpheres));
+  lanes.spheres = groundScene(random, int(kFlatListMaxPrimitives));
   Scene loop = lanes;
   lanes.buildAccelerator();
   REQUIRE_FALSE(lanes.usesAccelerator());
@@ -167,7 +167,7 @@ TEST_CASE("the scene's flat list goes through the lanes where the CPU tests four
     REQUIRE(a.has_value() == b.has_value());
     if (a) {
       REQUIRE(sameBits(a->t, b->t));
-      REQUIRE(a->sphere == b->sphere);
+      REQUIRE(a->primitive == b->primitive);
       REQUIRE(a->point == b->point);
       REQUIRE(a->normal == b->normal);
       REQUIRE(a->pointError == b->pointError);
@@ -179,7 +179,7 @@ TEST_CASE("the scene's flat list goes through the lanes where the CPU tests four
   CHECK_FALSE(lanes.usesLanes());
   const std::optional<Hit> hit = lanes.intersect(Ray{Vec3(0, 60, 0), Vec3(0, -1, 0)});
   REQUIRE(hit);
-  CHECK(hit->sphere == int(lanes.spheres.size()) - 1);
+  CHECK(hit->primitive == int(lanes.spheres.size()) - 1);
   // A scene below kLanesMinSpheres keeps no lanes, nor does one the BVH takes.
   Scene few;
   few.materials.push_back(Material{});
@@ -189,7 +189,7 @@ TEST_CASE("the scene's flat list goes through the lanes where the CPU tests four
   CHECK_FALSE(few.usesAccelerator());
   Scene big;
   big.materials.push_back(Material{});
-  big.spheres = groundScene(random, int(kFlatListMaxSpheres) + 1);
+  big.spheres = groundScene(random, int(kFlatListMaxPrimitives) + 1);
   big.buildAccelerator();
   CHECK(big.usesAccelerator());
   CHECK_FALSE(big.usesLanes());

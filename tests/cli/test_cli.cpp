@@ -125,7 +125,7 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
        "'center', 'radius', 'material'"},
       {"a misspelt top-level key", withFault(R"("lights")", R"("light")"),
        "scene.json:13:12: /light: unknown key 'light' (did you mean 'lights'?); known keys here: 'camera', "
-       "'background', 'ambient', 'materials', 'spheres', 'lights'"},
+       "'background', 'ambient', 'materials', 'spheres', 'meshes', 'lights'"},
       {"a key given twice", withFault(R"("radius": 1,)", R"("radius": 1, "radius": 2,)"),
        "scene.json:11:41: /spheres/1/radius: the key 'radius' is given twice in one object (first at 11:28); give "
        "each key once"},
@@ -192,7 +192,7 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
        withFault("{ \"center\": [0, -100, 0], \"radius\": 100, \"material\": \"red\" },\n    "
                  "{ \"center\": [0, 1, 0], \"radius\": 1, \"material\": \"glass\" }",
                  ""),
-       "scene.json:9:14: /spheres: the scene is empty: give at least one sphere"},
+       "scene.json:9:14: /spheres: the scene is empty: give at least one sphere (\"spheres\") or one mesh (\"meshes\")"},
       {"a top level that is not an object", "[1, 2]", "scene.json:1:1: /: expected an object { ... }, got array [1,2]"},
       {"an empty file", "", "scene.json:1:1: the file is empty: expected a JSON object such as {\"camera\": {...}, "
                             "\"spheres\": [...]}"},
@@ -221,7 +221,7 @@ TEST_CASE("an unused material is only a warning")
   const Outcome o = run(kStep04, {"scene.json", "-o", "out.png", "--quiet"}, dir.path());
   CHECK(o.status == 0);
   CHECK(o.err == "step04_shadows: warning: scene.json:6:15: /materials/unused: material 'unused' is defined but no "
-                 "sphere uses it\n");
+                 "sphere or mesh uses it\n");
   CHECK(entries(dir.path()) == std::vector<std::string>{"out.png", "scene.json"});
 }
 

@@ -188,9 +188,9 @@ TEST_CASE("lights are chosen in proportion to their power and the pdf for a dire
                                  "inline");
   const LightSampler lights(scene);
   REQUIRE_FALSE(lights.empty());
-  CHECK(lights.sphereProbability(0) == Approx(1 / 2.25).epsilon(1e-6));
-  CHECK(lights.sphereProbability(1) == 0);
-  CHECK(lights.sphereProbability(2) == Approx(1 / 2.25).epsilon(1e-6));
+  CHECK(lights.probability(0) == Approx(1 / 2.25).epsilon(1e-6));
+  CHECK(lights.probability(1) == 0);
+  CHECK(lights.probability(2) == Approx(1 / 2.25).epsilon(1e-6));
 
   Sampler rng(31, 0, 0, 0);
   const Vec3 ref(0, 0, 0);
@@ -206,10 +206,10 @@ TEST_CASE("lights are chosen in proportion to their power and the pdf for a dire
       CHECK(ls->Li.r == Approx(std::numbers::pi / 4 / 25).epsilon(1e-6)); // I/d²
       continue;
     }
-    ++count[ls->sphere == 0 ? 0 : 1];
+    ++count[ls->primitive == 0 ? 0 : 1];
     // The pdf MIS asks for a direction that hits this sphere is the one the sampler used.
-    CHECK(lights.pdf(ref, ls->sphere) == Approx(ls->pdf).epsilon(kTolerance));
-    const Sphere& s = scene.spheres[std::size_t(ls->sphere)];
+    CHECK(lights.pdf(ref, ls->primitive, ls->target) == Approx(ls->pdf).epsilon(kTolerance));
+    const Sphere& s = scene.spheres[std::size_t(ls->primitive)];
     CHECK(hitsSphere(ref, ls->wi, s.center, s.radius));
     CHECK(glm::length(ls->target - s.center) == Approx(s.radius).epsilon(kTolerance));
   }
@@ -228,7 +228,7 @@ namespace {
 
 // A room (the inside of a large sphere) with two lamps that also reflect (so points on a lamp are shaded, and some of
 // their light samples leave the lamp's own surface) and blockers between them; `extra` small blockers more. Above
-// kFlatListMaxSpheres spheres the scene is searched through its BVH.
+// kFlatListMaxPrimitives spheres the scene is searched through its BVH.
 Scene visibilityScene(int extra)
 {
   std::string spheres = R"({ "center": [0, 0, 0], "radius": 50, "material": "wall" },
@@ -273,7 +273,7 @@ TEST_CASE("a light sample is visible exactly when the first sphere its shadow ra
       const std::optional<LightSample> ls = lights.sample(hit->point, rng.next1D(), rng.next2D());
       REQUIRE(ls);
       const std::optional<Hit> seen = scene.intersect(spawnRay(*hit, ls->wi));
-      const bool expected = seen && seen->sphere == ls->sphere;
+      const bool expected = seen && seen->primitive == ls->primitive;
       const bool got = lightVisible(scene, *hit, *ls);
       disagree += got != expected;
       (expected ? visible : blocked)++;
@@ -303,7 +303,7 @@ TEST_CASE("a scene without lights has nothing to sample")
   const LightSampler lights(scene);
   CHECK(lights.empty());
   CHECK_FALSE(lights.sample(Vec3(0, 2, 0), Real(0.5), Vec2(Real(0.5))));
-  CHECK(lights.pdf(Vec3(0, 2, 0), 0) == 0);
+  CHECK(lights.pdf(Vec3(0, 2, 0), 0, Vec3(0, 1, 0)) == 0);
 }
 
 // ---- MIS weights --------------------------------------------------------------------------------------------------
@@ -371,7 +371,7 @@ TEST_CASE("MIS: for random glossy and diffuse surfaces under random sphere light
         const Vec3 wi = frame.toWorld(bs->wi);
         if (!hitsSphere(ref, wi, Vec3(0), radius))
           continue;
-        const Real pl = lights.pdf(ref, 0);
+        const Real pl = lights.pdf(ref, 0, ref + wi);
         CHECK(pl > 0);
         CHECK(std::abs(balanceHeuristic(bs->pdf, pl) + balanceHeuristic(pl, bs->pdf) - 1) < kTolerance);
         CHECK(std::abs(powerHeuristic(bs->pdf, pl) + powerHeuristic(pl, bs->pdf) - 1) < kTolerance);

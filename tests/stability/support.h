@@ -96,6 +96,36 @@ std::optional<T> naiveIntersectSphere(const TVec3<T>& o, const TVec3<T>& d, cons
   return std::nullopt;
 }
 
+// [naiveTriangle]
+/// The Möller–Trumbore ray–triangle test as it is usually written (Möller and Trumbore 1997): barycentric u and v
+/// from the ray's own cross products, each triangle deciding "inside" from its own edge vectors and its own
+/// rounding. Correct on the whole, but not watertight: a ray through an edge shared by two triangles can be
+/// judged outside both (u or v a hair below 0 in one, u + v a hair above 1 in the other) and slip through.
+template <class T>
+std::optional<T> naiveIntersectTriangle(const TVec3<T>& o, const TVec3<T>& d, const TVec3<T>& p0, const TVec3<T>& p1,
+                                        const TVec3<T>& p2, T tmin, T tmax)
+{
+  const TVec3<T> e1 = p1 - p0, e2 = p2 - p0;
+  const TVec3<T> pvec = glm::cross(d, e2);
+  const T det = glm::dot(e1, pvec);
+  if (det == 0)
+    return std::nullopt;
+  const T invDet = 1 / det;
+  const TVec3<T> tvec = o - p0;
+  const T u = glm::dot(tvec, pvec) * invDet;
+  if (u < 0 || u > 1)
+    return std::nullopt;
+  const TVec3<T> qvec = glm::cross(tvec, e1);
+  const T v = glm::dot(d, qvec) * invDet;
+  if (v < 0 || u + v > 1)
+    return std::nullopt;
+  const T t = glm::dot(e2, qvec) * invDet;
+  if (t >= tmin && t < tmax)
+    return t;
+  return std::nullopt;
+}
+// [naiveTriangle]
+
 using LongVec3 = glm::vec<3, long double, glm::defaultp>;
 
 /// The exact-input reference: the line o + t·d (the T values taken exactly, |d| not assumed 1) against the

@@ -118,12 +118,12 @@ TEST_CASE("stability 3: Scene::intersect after spawnRay finds a sphere 0.0007 aw
   const std::optional<Hit> hitA =
       scene.intersect(Ray{Vec3(0.1, 5, 0.2), glm::normalize(Vec3(-0.1, -4, -0.2)), 0, kInfinity});
   REQUIRE(hitA);
-  REQUIRE(hitA->sphere == 0);
+  REQUIRE(hitA->primitive == 0);
   scene.spheres.push_back(Sphere{hitA->point + (Real(0.0007) + Real(500)) * hitA->normal, Real(500), 0});
   const Ray up = spawnRay(*hitA, hitA->normal);
   const std::optional<Hit> next = scene.intersect(up);
   REQUIRE(next);
-  CHECK(next->sphere == 1);
+  CHECK(next->primitive == 1);
   CHECK(next->t < Real(0.01));
   // The naive spawn, for contrast: origin at the hit point, t_min = 0.001.
   const std::optional<Hit> naive = scene.intersect(Ray{hitA->point, hitA->normal, Real(kFixedTmin), kInfinity});

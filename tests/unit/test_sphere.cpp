@@ -28,7 +28,7 @@ TEST_CASE("a ray through the centre hits the near side at the expected distance"
   CHECK(hit->t == Approx(8).epsilon(kTol));
   CHECK(glm::length(hit->point - Vec3(0, 0, -8)) < kTol);
   CHECK(glm::length(hit->normal - Vec3(0, 0, 1)) < kTol); // n = (p − c)/r
-  CHECK(hit->sphere == 0);
+  CHECK(hit->primitive == 0);
   CHECK(hit->frontFace(Vec3(0, 0, -1)));
 }
 
@@ -84,7 +84,7 @@ TEST_CASE("the nearest of several spheres wins - whatever their order")
   scene.spheres.push_back(Sphere{Vec3(0, 0, -12), 1, 0});
   const auto hit = scene.intersect(Ray{Vec3(0), Vec3(0, 0, -1)});
   REQUIRE(hit);
-  CHECK(hit->sphere == 1);
+  CHECK(hit->primitive == 1);
   CHECK(hit->t == Approx(4));
 }
 

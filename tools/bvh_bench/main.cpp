@@ -7,7 +7,7 @@
 //       interleaved runs, each lasting about as long as one pass of the loop.
 //   bvh_bench crossover [SCENE.json] [--repeat R]
 //       The same for the N spheres nearest the focal point (the ground sphere always among them), N = 1 … 64:
-//       where the tree starts to pay (Scene's kFlatListMaxSpheres).
+//       where the tree starts to pay (Scene's kFlatListMaxPrimitives).
 //   bvh_bench heatmap [SCENE.json] --split sah|midpoint -o FILE.png|FILE.pfm [--width W] [--height H]
 //       The work per pixel (camera ray and shadow rays, as in chapter 9's right image) with a tree built by the
 //       given split; prints the tree's SAH cost and the mean work per pixel.

@@ -1,0 +1,62 @@
+/// @file mesh_file.h
+/// @brief Triangle meshes read from OBJ and PLY files (ASCII and binary PLY), through the Assimp library, and
+/// checked by raylife: every index in range, every vertex finite, at least one triangle, nothing but triangles.
+///
+/// Why a library: OBJ and PLY look simple and are not (OBJ's negative and relative indices, polygons to triangulate,
+/// PLY's binary layouts and property lists), and a hand-written parser is where hostile files find their way in.
+/// Why raylife checks anyway: a library's own checks vary by version (Debian 12's tinyobjloader, for one, does not
+/// range-check negative OBJ indices), and a renderer that indexes out of range on a bad file crashes or draws
+/// garbage. The meshes here are in the file's own coordinates; the scene loader transforms them.
+#pragma once
+
+#include "core/math.h"
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace raylife {
+
+/// A mesh as a file holds it: vertex positions, optional vertex normals, and triangles as index triples into them.
+struct MeshData {
+  std::vector<Vec3> positions;                          ///< Every vertex, finite.
+  /// Empty, or one per position, as the file gives them (not checked for length: the scene loader normalises them
+  /// and drops the file's normals if any is zero or not finite). Empty when only some of the file's parts have them.
+  std::vector<Vec3> normals;
+  std::vector<std::array<std::uint32_t, 3>> triangles;  ///< Counter-clockwise from the front; every index in range.
+};
+
+/// A fault in a mesh file. what() is the whole message: "FILE: what is wrong" (with the line where the
+/// library names one).
+class MeshError : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
+/// The mesh formats raylife reads.
+enum class MeshFormat {
+  Obj, ///< Wavefront OBJ (text; polygons are triangulated; materials and textures are ignored).
+  Ply, ///< Stanford PLY, ASCII or binary.
+};
+
+/// Largest mesh file readMeshFile reads, in bytes (1 GiB): room for tens of millions of triangles.
+inline constexpr std::size_t kMaxMeshFileBytes = std::size_t(1) << 30;
+
+/// The format of a file by its extension (.obj or .ply, in any case). @throws MeshError for any other extension.
+MeshFormat meshFormatOf(const std::string& path);
+
+/// Reads and checks a mesh file (a regular file of at most kMaxMeshFileBytes). Vertices that share a position
+/// (and a normal, when the file gives normals) are joined, so that a mesh read from a file whose faces each list
+/// their own corners is still connected. @throws MeshError naming the file and the fault: unreadable, empty, not
+/// OBJ or PLY, malformed (the library's message), an index out of range, a vertex that is not finite, points or
+/// lines (raylife renders triangles), or no triangle at all.
+MeshData readMeshFile(const std::string& path);
+
+/// readMeshFile on bytes already in memory, `name` used in messages only (the fuzz target's entry). Never reads
+/// another file (an OBJ's material library is ignored). @throws MeshError.
+MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std::string& name);
+
+} // namespace raylife

@@ -1,0 +1,305 @@
+// Triangles: the watertight test's answers on simple cases, and the BVH over spheres and triangles against the
+// brute-force loop (the same primitive and the same t, bit for bit) on over a million rays aimed at vertices, edges,
+// faces, planes and spheres; the scene's flat list and tree in agreement; a leaf holding one kind only.
+#include "geometry/bvh.h"
+#include "random_meshes.h"
+#include "scene/scene.h"
+
+#include <catch2/catch.hpp>
+
+#include <cstring>
+
+using namespace raylife;
+using namespace raylife::testing;
+
+namespace {
+
+// A scene's geometry for the tree: spheres, vertices, triangles.
+struct Mixed {
+  std::vector<Sphere> spheres;
+  std::vector<Vec3> vertices;
+  std::vector<Triangle> triangles;
+
+  void add(const TestMesh<Real>& m)
+  {
+    const auto base = std::uint32_t(vertices.size());
+    vertices.insert(vertices.end(), m.vertices.begin(), m.vertices.end());
+    for (const auto& t : m.triangles)
+      triangles.push_back(Triangle{{base + t[0], base + t[1], base + t[2]}, 0, 0});
+  }
+};
+
+// A ray of one of the awkward kinds for triangles, or, one time in four, randomRay's kinds for the spheres.
+Ray triangleRay(Random& random, const Mixed& s, Real extent)
+{
+  if (!s.spheres.empty() && random.index(4) == 0)
+    return randomRay(random, s.spheres, extent);
+  const Triangle& tri = s.triangles[random.index(s.triangles.size())];
+  const Vec3 p[3] = {s.vertices[tri.v[0]], s.vertices[tri.v[1]], s.vertices[tri.v[2]]};
+  Ray ray;
+  ray.origin = random.inBox(-extent, extent);
+  Vec3 target;
+  switch (random.index(6)) {
+  case 0: // exactly at a vertex
+    target = p[random.index(3)];
+    break;
+  case 1: { // at a point of an edge
+    const std::size_t e = random.index(3);
+    target = p[e] + (p[(e + 1) % 3] - p[e]) * random.uniform();
+    break;
+  }
+  case 2: { // at a point inside the face
+    const Real a = random.uniform(), b = random.uniform() * (1 - a);
+    target = p[0] + (p[1] - p[0]) * a + (p[2] - p[0]) * b;
+    break;
+  }
+  case 3: { // in the triangle's own plane (grazing: parallel to the face)
+    const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
+    ray.origin = p[0] + e1 * random.uniform(-1, 2) + e2 * random.uniform(-1, 2);
+    target = p[0] + e1 * random.uniform(-1, 2) + e2 * random.uniform(-1, 2);
+    break;
+  }
+  case 4: { // from a point on the face (an unshifted secondary ray), any direction
+    const Real a = random.uniform(), b = random.uniform() * (1 - a);
+    ray.origin = p[0] + (p[1] - p[0]) * a + (p[2] - p[0]) * b;
+    target = ray.origin + random.direction();
+    break;
+  }
+  default: { // axis-aligned through a vertex's coordinates
+    const int axis = int(random.index(3));
+    ray.origin = p[random.index(3)];
+    ray.origin[axis] = random.uniform(-extent, extent);
+    target = ray.origin;
+    target[axis] += random.index(2) ? 1 : -1;
+    break;
+  }
+  }
+  ray.direction = safeNormalize(target - ray.origin, Vec3(0, 0, 1));
+  if (random.index(4) == 0) {
+    ray.tmin = random.uniform(0, extent);
+    ray.tmax = ray.tmin + random.uniform(0, 2 * extent);
+  }
+  return ray;
+}
+
+struct Agreement {
+  std::size_t rays = 0, hits = 0, triangleHits = 0, closest = 0, anyHit = 0, boxTests = 0;
+  std::string first;
+};
+
+Agreement compare(const Mixed& s, std::size_t rays, std::uint64_t seed, Real extent)
+{
+  const Bvh bvh(s.spheres, s.vertices, s.triangles);
+  BvhBuildOptions fourOptions;
+  fourOptions.eightAtOnce = false;
+  const Bvh four(s.spheres, s.vertices, s.triangles, fourOptions);
+  Random random(seed);
+  Agreement a;
+  for (std::size_t i = 0; i < rays; ++i) {
+    const Ray ray = triangleRay(random, s, extent);
+    const std::optional<Reference> expected = bruteForce(s.spheres, s.vertices, s.triangles, ray);
+    const std::optional<BvhHit> got = bvh.intersect(ray);
+    const bool same = expected.has_value() == got.has_value() &&
+                      (!expected || (expected->sphere == got->primitive &&
+                                     std::memcmp(&expected->t, &got->t, sizeof(Real)) == 0));
+    if (!same && a.first.empty())
+      a.first = describe(ray) + ": brute force " +
+                (expected ? std::to_string(expected->sphere) + " at " + std::to_string(expected->t) : "miss") +
+                ", BVH " + (got ? std::to_string(got->primitive) + " at " + std::to_string(got->t) : "miss");
+    a.closest += !same;
+    a.anyHit += bvh.occluded(ray) != expected.has_value();
+    const BvhTracedHit byFour = four.intersectWithWork(ray), byEight = bvh.intersectWithWork(ray);
+    a.boxTests += byFour.hit.has_value() != byEight.hit.has_value() ||
+                  (byFour.hit && byFour.hit->primitive != byEight.hit->primitive) ||
+                  byFour.work.nodesVisited != byEight.work.nodesVisited ||
+                  byFour.work.primitivesTested != byEight.work.primitivesTested;
+    a.hits += expected.has_value();
+    a.triangleHits += expected && std::size_t(expected->sphere) >= s.spheres.size();
+    ++a.rays;
+  }
+  return a;
+}
+
+void checkAgreement(const Mixed& s, std::size_t rays, std::uint64_t seed, Real extent)
+{
+  const Agreement a = compare(s, rays, seed, extent);
+  INFO(a.rays << " rays, " << a.hits << " hits (" << a.triangleHits << " on triangles); first disagreement: "
+              << a.first);
+  CHECK(a.closest == 0);
+  CHECK(a.anyHit == 0);
+  CHECK(a.boxTests == 0);
+  CHECK(a.triangleHits > rays / 10); // the rays do meet the triangles
+  CHECK(a.hits < rays);              // and some miss
+}
+
+} // namespace
+
+// ---- The watertight test on simple cases ------------------------------------------------------------------------
+
+TEST_CASE("a ray through a triangle's face hits it at the right t, with barycentrics that give the point")
+{
+  const Vec3 p0(0, 0, 0), p1(2, 0, 0), p2(0, 2, 0);
+  const Vec3 o(Real(0.5), Real(0.25), 3), d(0, 0, -1);
+  const auto h = intersectTriangle(o, d, p0, p1, p2, Real(0), kInfinity);
+  REQUIRE(h);
+  CHECK(h->t == Approx(3));
+  CHECK(h->b0 + h->b1 + h->b2 == Approx(1));
+  const TrianglePoint<Real> tp = trianglePoint(p0, p1, p2, h->b0, h->b1, h->b2);
+  CHECK(tp.point.x == Approx(0.5));
+  CHECK(tp.point.y == Approx(0.25));
+  CHECK(std::abs(tp.point.z) <= tp.error.z + 1e-300);
+  // From behind too: a triangle has two faces.
+  CHECK(intersectTriangle(Vec3(Real(0.5), Real(0.25), -3), Vec3(0, 0, 1), p0, p1, p2, Real(0), kInfinity));
+  // The geometric normal is the counter-clockwise side.
+  CHECK(triangleNormal(p0, p1, p2).z == Approx(1));
+}
+
+TEST_CASE("a triangle is missed outside its edges, behind the ray, beyond tmax, before tmin, edge on, or degenerate")
+{
+  const Vec3 p0(0, 0, 0), p1(2, 0, 0), p2(0, 2, 0);
+  CHECK_FALSE(intersectTriangle(Vec3(Real(1.5), Real(1.5), 3), Vec3(0, 0, -1), p0, p1, p2, Real(0), kInfinity));
+  CHECK_FALSE(intersectTriangle(Vec3(Real(0.5), Real(0.5), 3), Vec3(0, 0, 1), p0, p1, p2, Real(0), kInfinity));
+  CHECK_FALSE(intersectTriangle(Vec3(Real(0.5), Real(0.5), 3), Vec3(0, 0, -1), p0, p1, p2, Real(0), Real(2.9)));
+  CHECK_FALSE(intersectTriangle(Vec3(Real(0.5), Real(0.5), 3), Vec3(0, 0, -1), p0, p1, p2, Real(3.1), kInfinity));
+  CHECK_FALSE(intersectTriangle(Vec3(-1, Real(0.5), 0), Vec3(1, 0, 0), p0, p1, p2, Real(0), kInfinity)); // in plane
+  CHECK_FALSE(intersectTriangle(Vec3(Real(0.5), 0, 3), Vec3(0, 0, -1), p0, p1, Vec3(1, 0, 0), Real(0), kInfinity));
+  // tmax is exclusive and tmin inclusive, as for spheres.
+  CHECK(intersectTriangle(Vec3(Real(0.5), Real(0.5), 3), Vec3(0, 0, -1), p0, p1, p2, Real(3), kInfinity));
+  CHECK_FALSE(intersectTriangle(Vec3(Real(0.5), Real(0.5), 3), Vec3(0, 0, -1), p0, p1, p2, Real(0), Real(3)));
+}
+
+TEST_CASE("a ray leaving a triangle through spawnRay's offset never finds the same triangle, and without it some do")
+{
+  // A ray arrives at the triangle; a new ray leaves where it hit, in a random direction. Robust: the point from the
+  // hit's barycentrics with its error bound (trianglePoint), moved off the face by offsetRayOrigin to the side the
+  // new direction leaves through. The control, as a naive renderer does it: the point o + t·d, which carries the
+  // error of t times the distance travelled, and no offset.
+  Random random(17);
+  int rays = 0, offsetHits = 0, naiveHits = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const Real scale = std::pow(Real(10), random.uniform(-2, 5));
+    const Vec3 p0 = random.inBox(-scale, scale), p1 = p0 + random.direction() * random.uniform(Real(0.01), 10) * scale,
+               p2 = p0 + random.direction() * random.uniform(Real(0.01), 10) * scale;
+    const Real b1 = random.uniform(), b2 = random.uniform() * (1 - b1);
+    const Vec3 aim = p0 + (p1 - p0) * b1 + (p2 - p0) * b2;
+    const Vec3 from = aim + random.direction() * (scale * random.uniform(1, 100));
+    const Vec3 d = glm::normalize(aim - from);
+    const auto h = intersectTriangle(from, d, p0, p1, p2, Real(0), kInfinity);
+    if (!h)
+      continue;
+    ++rays;
+    const Vec3 dir = random.direction();
+    const TrianglePoint<Real> on = trianglePoint(p0, p1, p2, h->b0, h->b1, h->b2);
+    const Vec3 origin = offsetRayOrigin(on.point, on.error, triangleNormal(p0, p1, p2), dir);
+    offsetHits += intersectTriangle(origin, dir, p0, p1, p2, Real(0), kInfinity).has_value();
+    naiveHits += intersectTriangle(from + h->t * d, dir, p0, p1, p2, Real(0), kInfinity).has_value();
+  }
+  INFO(offsetHits << " of " << rays << " offset rays and " << naiveHits
+                  << " unshifted ones from o + t·d hit their own triangle again");
+  CHECK(rays > 90000);
+  CHECK(offsetHits == 0);
+  CHECK(naiveHits > 100); // the control: the offset is what prevents it
+}
+
+// ---- The BVH over spheres and triangles ---------------------------------------------------------------------------
+
+TEST_CASE("the BVH over triangles and spheres finds exactly the brute-force hit for a million random rays")
+{
+  Random random(77);
+  SECTION("a closed jittered sphere mesh")
+  {
+    Mixed s;
+    s.add(jitteredSphere<Real>(random, glm::dvec3(0), 5, 16, 32, 0.8));
+    checkAgreement(s, 250000, 1, 8);
+  }
+  SECTION("grids of shared edges, and a sphere mesh far from the origin")
+  {
+    Mixed s;
+    s.add(grid(12, 6));
+    s.add(jitteredSphere<Real>(random, glm::dvec3(1e3, 2e3, -1e3), 50, 16, 32, 0.5));
+    checkAgreement(s, 200000, 2, 2500);
+  }
+  SECTION("a soup of triangles of every size, slivers and duplicates")
+  {
+    Mixed s;
+    s.add(triangleSoup(random, 600, 10));
+    checkAgreement(s, 250000, 3, 12);
+  }
+  SECTION("spheres and triangles together")
+  {
+    Mixed s;
+    s.spheres = groundScene(random, 200);
+    s.add(jitteredSphere<Real>(random, glm::dvec3(0, 2, 0), 1.5, 12, 24, 0.7));
+    s.add(triangleSoup(random, 300, 11));
+    checkAgreement(s, 250000, 4, 12);
+  }
+  SECTION("tiny scenes")
+  {
+    for (int n : {1, 2, 3, 5, 9}) {
+      Mixed s;
+      s.add(triangleSoup(random, n, 3));
+      if (n > 2)
+        s.spheres = uniformScene(random, n / 2);
+      checkAgreement(s, 20000, std::uint64_t(10 + n), 4);
+    }
+  }
+}
+
+TEST_CASE("a leaf of the BVH holds spheres or triangles, never both, and the tree counts both")
+{
+  Random random(5);
+  Mixed s;
+  s.spheres = uniformScene(random, 40);
+  s.add(triangleSoup(random, 60, 10));
+  const Bvh bvh(s.spheres, s.vertices, s.triangles);
+  CHECK(bvh.primitiveCount() == 100 + 60 / 7 + 1);
+  std::size_t spheresInLeaves = 0, trianglesInLeaves = 0;
+  for (const BvhNode& n : bvh.nodes())
+    (n.triangles ? trianglesInLeaves : spheresInLeaves) += n.count;
+  CHECK(spheresInLeaves == s.spheres.size());
+  CHECK(trianglesInLeaves == s.triangles.size());
+}
+
+TEST_CASE("the scene's flat list and its tree give the same hits over triangles")
+{
+  // The same geometry in a scene below kFlatListMaxPrimitives (a flat loop) and, with far-away filler added after
+  // it, in a tree: every ray that the filler cannot reach gets the same hit record either way.
+  Random random(9);
+  Scene small;
+  small.materials.push_back(Material{});
+  const TestMesh<Real> soup = triangleSoup(random, 3, 2);
+  small.vertices = soup.vertices;
+  for (const auto& t : soup.triangles)
+    small.triangles.push_back(Triangle{{t[0], t[1], t[2]}, 0, 0});
+  small.meshes.push_back(Mesh{"inline", 0, false, 0, std::uint32_t(small.triangles.size())});
+  small.spheres = {Sphere{Vec3(0, 0, 0), Real(0.5), 0}, Sphere{Vec3(1, 1, 0), Real(0.3), 0}};
+  small.buildAccelerator();
+  REQUIRE_FALSE(small.usesAccelerator());
+  Scene big = small;
+  for (int i = 0; i < 20; ++i)
+    big.spheres.push_back(Sphere{Vec3(1000 + 3 * i, 1000, 1000), 1, 0});
+  // (The filler spheres come after the first two, so the triangles' numbers move by 20 in the big scene.)
+  big.buildAccelerator();
+  REQUIRE(big.usesAccelerator());
+  int hits = 0;
+  for (int i = 0; i < 20000; ++i) {
+    // Half the rays aimed at a vertex of the soup or near a sphere, so that many hit.
+    const Vec3 from = random.inBox(-3, 3);
+    const Vec3 at = i % 2 ? small.vertices[random.index(small.vertices.size())] : random.inBox(-1, 1);
+    const Ray ray{from, i % 4 == 3 ? random.direction() : safeNormalize(at - from, Vec3(0, 0, 1)), 0, kInfinity};
+    const std::optional<Hit> a = small.intersect(ray), b = big.intersect(ray);
+    REQUIRE(a.has_value() == b.has_value());
+    REQUIRE(small.occluded(ray) == a.has_value());
+    REQUIRE(big.occluded(ray) == b.has_value());
+    if (!a)
+      continue;
+    ++hits;
+    const int shift = a->primitive >= 2 ? 20 : 0;
+    REQUIRE(a->primitive + shift == b->primitive);
+    REQUIRE(std::memcmp(&a->t, &b->t, sizeof(Real)) == 0);
+    REQUIRE(a->point == b->point);
+    REQUIRE(a->normal == b->normal);
+    REQUIRE(small.intersectPrimitive(ray, a->primitive) == a->t);
+  }
+  CHECK(hits > 5000);
+}
