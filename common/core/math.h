@@ -6,6 +6,7 @@
 
 #include <glm/glm.hpp>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -193,14 +194,20 @@ template <class T> inline bool isFinite(const TVec3<T>& v)
 ///
 /// glm::normalize squares the components, so |v|² underflows to 0 for |v| below about 1e-154 in double and
 /// 1e-19 in float (it then returns ±∞ or NaN), and overflows above about 1e154 and 1e19 (it then returns 0).
-/// This divides by the largest magnitude first, so every finite, non-zero v, subnormal ones included, gives
-/// a vector of length 1 to within a few ulps. Use it wherever a vector may legitimately degenerate (a sampled
-/// direction that cancels the normal, say); fallback should itself be unit.
+/// Where |v|² is comfortably inside the normal range (the usual case) this is v/|v|; elsewhere it divides by the
+/// largest magnitude first. So every finite, non-zero v, subnormal ones included, gives a vector of length 1 to
+/// within a few ulps. Use it wherever a vector may legitimately degenerate (a sampled direction that cancels the
+/// normal, say); fallback should itself be unit.
 template <class T> TVec3<T> safeNormalize(const TVec3<T>& v, const TVec3<T>& fallback)
 {
+  // The usual case: |v|² far from underflow and overflow (a NaN or ∞ in v fails the test and goes the long way).
+  const T length2 = glm::dot(v, v);
+  if (length2 > std::numeric_limits<T>::min() * T(1 << 20) && length2 < std::numeric_limits<T>::max() / T(1 << 20))
+    return v / std::sqrt(length2);
   if (!isFinite(v))
     return fallback;
-  const T scale = std::fmax(std::fabs(v.x), std::fmax(std::fabs(v.y), std::fabs(v.z)));
+  // (std::max, not std::fmax: the components are finite here, where the two agree, and fmax is a call into libm.)
+  const T scale = std::max(std::fabs(v.x), std::max(std::fabs(v.y), std::fabs(v.z)));
   if (!(scale > 0))
     return fallback;
   const TVec3<T> w = v / scale; // its largest component is ±1: no under- or overflow in the length

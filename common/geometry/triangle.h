@@ -16,6 +16,7 @@
 
 #include "core/math.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -108,14 +109,16 @@ std::optional<TriangleHit<T>> intersectTriangle(const TVec3<T>& o, const TVec3<T
   if (!(t >= tmin && t < tmax))
     return std::nullopt;
   // Accept t only when it is greater than 0 beyond its rounding error (pbrt-v4's bound on the error of t).
-  const T maxZ = maxComponent(glm::abs(TVec3<T>(a.z, b.z, c.z)));
-  const T maxX = maxComponent(glm::abs(TVec3<T>(a.x, b.x, c.x)));
-  const T maxY = maxComponent(glm::abs(TVec3<T>(a.y, b.y, c.y)));
+  // (std::max: a NaN here makes deltaT NaN, which refuses the hit, as it should.)
+  auto maxAbs = [](T x, T y, T z) { return std::max(std::fabs(x), std::max(std::fabs(y), std::fabs(z))); };
+  const T maxZ = maxAbs(a.z, b.z, c.z);
+  const T maxX = maxAbs(a.x, b.x, c.x);
+  const T maxY = maxAbs(a.y, b.y, c.y);
   const T deltaZ = gamma<T>(3) * maxZ;
   const T deltaX = gamma<T>(5) * (maxX + maxZ);
   const T deltaY = gamma<T>(5) * (maxY + maxZ);
   const T deltaE = 2 * (gamma<T>(2) * maxX * maxY + deltaY * maxX + deltaX * maxY);
-  const T maxE = maxComponent(glm::abs(TVec3<T>(e0, e1, e2)));
+  const T maxE = maxAbs(e0, e1, e2);
   const T deltaT = 3 * (gamma<T>(3) * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) * std::abs(invDet);
   if (!(t > deltaT))
     return std::nullopt;

@@ -98,18 +98,35 @@ inline constexpr Real kMinSphericalTriangleArea = Real(3e-4);
 inline constexpr Real kMaxSphericalTriangleArea = Real(6.22);
 
 // [triangleSolidAngle]
-/// The solid angle (steradians) that triangle (p0, p1, p2) subtends from `ref`, by Van Oosterom and Strackee's
-/// formula tan(Ω/2) = |a·(b × c)| / (1 + a·b + b·c + c·a) for the unit vectors a, b, c towards the vertices.
-/// atan2 keeps it right past Ω = π (a negative denominator), and it is exact to rounding for tiny triangles, where
-/// the angle-sum form (α + β + γ − π) cancels. In [0, 2π]; 0 when `ref` lies in the triangle's plane.
+/// A triangle as seen from a point: the unit directions towards its corners (the corners of a triangle on the
+/// unit sphere) and the solid angle they bound.
+template <class T> struct SphericalTriangle {
+  TVec3<T> a, b, c; ///< Unit directions from the point towards p0, p1, p2.
+  T solidAngle = 0; ///< Ω in steradians, [0, 2π]; 0 when the point lies in the triangle's plane or on a corner.
+};
+
+/// The triangle (p0, p1, p2) as seen from `ref`. The solid angle is Van Oosterom and Strackee's formula,
+/// tan(Ω/2) = |a·(b × c)| / (1 + a·b + b·c + c·a): atan2 keeps it right past Ω = π (a negative denominator), and it
+/// is exact to rounding for tiny triangles, where the angle-sum form α + β + γ − π cancels.
+template <class T>
+SphericalTriangle<T> sphericalTriangle(const TVec3<T>& ref, const TVec3<T>& p0, const TVec3<T>& p1, const TVec3<T>& p2)
+{
+  const TVec3<T> da = p0 - ref, db = p1 - ref, dc = p2 - ref;
+  const T la = glm::length(da), lb = glm::length(db), lc = glm::length(dc);
+  if (!(la > 0 && lb > 0 && lc > 0))
+    return SphericalTriangle<T>{TVec3<T>(0), TVec3<T>(0), TVec3<T>(0), T(0)};
+  SphericalTriangle<T> st{da / la, db / lb, dc / lc, T(0)};
+  const T numerator = std::abs(glm::dot(st.a, glm::cross(st.b, st.c)));
+  const T denominator = 1 + glm::dot(st.a, st.b) + glm::dot(st.b, st.c) + glm::dot(st.c, st.a);
+  st.solidAngle = 2 * std::atan2(numerator, denominator);
+  return st;
+}
+
+/// The solid angle (steradians) that triangle (p0, p1, p2) subtends from `ref` (see sphericalTriangle), in [0, 2π].
 template <class T>
 T triangleSolidAngle(const TVec3<T>& ref, const TVec3<T>& p0, const TVec3<T>& p1, const TVec3<T>& p2)
 {
-  const TVec3<T> a = safeNormalize(p0 - ref, TVec3<T>(0)), b = safeNormalize(p1 - ref, TVec3<T>(0)),
-                 c = safeNormalize(p2 - ref, TVec3<T>(0));
-  const T numerator = std::abs(glm::dot(a, glm::cross(b, c)));
-  const T denominator = 1 + glm::dot(a, b) + glm::dot(b, c) + glm::dot(c, a);
-  return 2 * std::atan2(numerator, denominator);
+  return sphericalTriangle(ref, p0, p1, p2).solidAngle;
 }
 // [triangleSolidAngle]
 
@@ -127,35 +144,31 @@ template <class T> bool sampledBySolidAngle(T solidAngle)
 }
 
 // [sampleSphericalTriangle]
-/// A direction from `ref` uniform in the solid angle of triangle (p0, p1, p2) (Arvo, "Stratified Sampling of
-/// Spherical Triangles", SIGGRAPH 1995), pdf 1/Ω; nothing if the spherical triangle has no area. Contract: the
-/// triangle subtends a solid angle in [kMinSphericalTriangleArea, kMaxSphericalTriangleArea].
+/// A direction uniform in the solid angle of spherical triangle `st` (Arvo, "Stratified Sampling of Spherical
+/// Triangles", SIGGRAPH 1995), pdf 1/Ω; nothing if it has no area. Contract: Ω in [kMinSphericalTriangleArea,
+/// kMaxSphericalTriangleArea].
 ///
-/// The vertices' directions A, B, C bound a triangle on the unit sphere with angles α, β, γ at its corners and area
+/// The corners A, B, C bound a triangle on the unit sphere with angles α, β, γ at its corners and area
 /// Ω = α + β + γ − π. Arvo inverts the area: u₀ chooses the sub-triangle A B C' of area u₀·Ω, whose corner C' on
-/// the arc AC follows in closed form; then u₁ chooses the direction on the arc from B to C' so that the density is
-/// uniform.
+/// the arc AC follows in closed form from α and the sub-area; then u₁ chooses the direction on the arc from B to C'
+/// so that the density is uniform.
 template <class T>
-std::optional<TriangleLightSample<T>> sampleSphericalTriangle(const TVec3<T>& ref, const TVec3<T>& p0,
-                                                              const TVec3<T>& p1, const TVec3<T>& p2,
-                                                              glm::vec<2, T> u)
+std::optional<TriangleLightSample<T>> sampleSphericalTriangle(const SphericalTriangle<T>& st, glm::vec<2, T> u)
 {
-  const TVec3<T> a = glm::normalize(p0 - ref), b = glm::normalize(p1 - ref), c = glm::normalize(p2 - ref);
-  // The corners' angles, between the great circles through the edges (their planes' normals).
-  const TVec3<T> nAB = safeNormalize(glm::cross(a, b), TVec3<T>(0)), nBC = safeNormalize(glm::cross(b, c), TVec3<T>(0)),
-                 nCA = safeNormalize(glm::cross(c, a), TVec3<T>(0));
-  if (nAB == TVec3<T>(0) || nBC == TVec3<T>(0) || nCA == TVec3<T>(0))
+  const TVec3<T>&a = st.a, &b = st.b, &c = st.c;
+  const T area = st.solidAngle;
+  // The angle α at A, between the great circles AB and AC (the angle between their planes' normals).
+  const TVec3<T> ab = glm::cross(a, b), ac = glm::cross(a, c);
+  const T lab = glm::length(ab), lac = glm::length(ac);
+  if (!(area > 0 && lab > 0 && lac > 0))
     return std::nullopt;
-  auto angle = [](const TVec3<T>& x, const TVec3<T>& y) { return std::acos(std::clamp(glm::dot(x, y), T(-1), T(1))); };
-  const T alpha = angle(nAB, -nCA), beta = angle(nBC, -nAB), gamma = angle(nCA, -nBC);
-  const T area = alpha + beta + gamma - std::numbers::pi_v<T>;
-  if (!(area > 0))
-    return std::nullopt;
+  const T cosAlpha = std::clamp(glm::dot(ab, ac) / (lab * lac), T(-1), T(1));
+  const T alpha = std::acos(cosAlpha);
+  const T sinAlpha = std::sqrt(std::max(T(0), (1 - cosAlpha) * (1 + cosAlpha)));
 
   // The sub-triangle of area u₀·Ω: its corner C' on the arc from A to C.
   const T areaPrime = u.x * area;
   const T s = std::sin(areaPrime - alpha), t = std::cos(areaPrime - alpha);
-  const T cosAlpha = std::cos(alpha), sinAlpha = std::sin(alpha);
   const T uu = t - cosAlpha;
   const T vv = s + sinAlpha * glm::dot(a, b); // cos c = A·B, the arc AB
   const T q = std::clamp(((vv * t - uu * s) * cosAlpha - vv) / ((vv * s + uu * t) * sinAlpha), T(-1), T(1));
@@ -168,6 +181,15 @@ std::optional<TriangleLightSample<T>> sampleSphericalTriangle(const TVec3<T>& re
   return TriangleLightSample<T>{wi, 1 / area};
 }
 // [sampleSphericalTriangle]
+
+/// sampleSphericalTriangle for triangle (p0, p1, p2) seen from `ref`.
+template <class T>
+std::optional<TriangleLightSample<T>> sampleSphericalTriangle(const TVec3<T>& ref, const TVec3<T>& p0,
+                                                              const TVec3<T>& p1, const TVec3<T>& p2,
+                                                              glm::vec<2, T> u)
+{
+  return sampleSphericalTriangle(sphericalTriangle(ref, p0, p1, p2), u);
+}
 
 // [sampleTriangleArea]
 /// The naive way: a point uniform on the triangle's surface (pdf 1/A per unit area), as a direction from `ref` with
@@ -201,8 +223,9 @@ template <class T>
 std::optional<TriangleLightSample<T>> sampleTriangleLight(const TVec3<T>& ref, const TVec3<T>& p0, const TVec3<T>& p1,
                                                           const TVec3<T>& p2, glm::vec<2, T> u)
 {
-  if (sampledBySolidAngle(triangleSolidAngle(ref, p0, p1, p2)))
-    return sampleSphericalTriangle(ref, p0, p1, p2, u);
+  const SphericalTriangle<T> st = sphericalTriangle(ref, p0, p1, p2);
+  if (sampledBySolidAngle(st.solidAngle))
+    return sampleSphericalTriangle(st, u);
   return sampleTriangleArea(ref, p0, p1, p2, u);
 }
 
