@@ -5,6 +5,7 @@
 #   ./setup.sh --fuzz   also clang's libFuzzer runtime (tests/fuzz)
 #   ./setup.sh --browser also Chromium, for the docs screenshot check
 #   ./setup.sh --bench  also gnuplot, for the benchmark's plots (tools/bench, docs/benchmarks.md)
+#   ./setup.sh --embree also Embree 3, the yardstick of tools/mesh_bench (cmake --preset embree)
 set -euo pipefail
 
 packages=(
@@ -13,6 +14,7 @@ packages=(
   libstb-dev                     # PNG reading and writing
   nlohmann-json3-dev             # scene files
   libassimp-dev                  # mesh files (OBJ, PLY)
+  assimp-testmodels              # chapter 10's model and the mesh loader's tests (real and malformed files)
   catch2                         # tests (version 2)
   doxygen graphviz libjs-mathjax # docs, offline formulas
 )
@@ -21,7 +23,8 @@ for arg in "$@"; do
     --fuzz) packages+=(clang libclang-rt-14-dev libomp-14-dev) ;; # libomp: OpenMP for a clang build
     --browser) packages+=(chromium) ;;
     --bench) packages+=(gnuplot-nox fonts-dejavu-core) ;;
-    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench)" >&2; exit 2 ;;
+    --embree) packages+=(libembree-dev) ;;
+    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench, --embree)" >&2; exit 2 ;;
   esac
 done
 

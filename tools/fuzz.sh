@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
-# Fuzzes the scene loader with libFuzzer for SECONDS (default 60), single process.
+# Fuzzes the scene loader, then the mesh files, with libFuzzer for SECONDS each (default 60), single process.
 #   tools/fuzz.sh SECONDS [BUILD_DIR]
-# Builds tests/fuzz/fuzz_scene with clang (-fsanitize=fuzzer,address,undefined) in BUILD_DIR (default
-# build-fuzz/), seeds it from scenes/, scenes/stress/ and tests/fuzz/regressions/, keeps the growing corpus in
-# BUILD_DIR/corpus/ between runs, and leaves any crashing or hanging input in BUILD_DIR/crashes/.
+# Builds tests/fuzz/fuzz_scene and fuzz_mesh with clang (-fsanitize=fuzzer,address,undefined) in BUILD_DIR (default
+# build-fuzz/). The scene fuzzer is seeded from scenes/, scenes/stress/ and tests/fuzz/regressions/, the mesh fuzzer
+# from tests/fuzz/mesh_regressions/ (and Assimp's test models, where Debian's assimp-testmodels is installed); each
+# keeps its growing corpus in BUILD_DIR/corpus*/ between runs, and leaves any crashing or hanging input in
+# BUILD_DIR/crashes/. (Assimp itself is not instrumented: the mesh fuzzer steers by raylife's code only, but a crash
+# or a sanitizer report anywhere still stops it.)
 # Exit status: 0 nothing found, 1 the fuzzer found a fault (copy the input into tests/fuzz/regressions/ once fixed),
 # 2 bad usage. Needs clang, libclang-rt-14-dev and libomp-14-dev (./setup.sh --fuzz).
 set -euo pipefail
@@ -20,7 +23,7 @@ flags="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefin
 mkdir -p "$build"
 CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRAYLIFE_FUZZ=ON \
   -DCMAKE_CXX_FLAGS="$flags" >"$build/configure.log" 2>&1 || { cat "$build/configure.log" >&2; exit 1; }
-cmake --build "$build" --target fuzz_scene -j2
+cmake --build "$build" --target fuzz_scene fuzz_mesh -j2
 
 corpus="$build/corpus"
 crashes="$build/crashes"
@@ -34,9 +37,26 @@ status=0
 ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_scene" "$corpus" "${seeds[@]}" \
   -dict="$root/tests/fuzz/scene.dict" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
   -max_len=16384 -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
+
+if [ "$status" -eq 0 ]; then
+  # The mesh fuzzer's seeds: its regressions, and small OBJ and PLY files from Assimp's test models (prefixed with the
+  # byte that names their format: 'n', even, for OBJ; 'q', odd, for PLY).
+  meshCorpus="$build/corpus-mesh"
+  meshSeeds="$build/seeds-mesh"
+  mkdir -p "$meshCorpus" "$meshSeeds"
+  for f in /usr/share/assimp/models/OBJ/*.obj /usr/share/assimp/models/PLY/*.ply /usr/share/assimp/models/invalid/*; do
+    [ -f "$f" ] && [ "$(stat -c %s "$f")" -le 65536 ] || continue
+    case "$f" in *.obj) prefix=n ;; *.ply) prefix=q ;; *) continue ;; esac
+    { printf '%s' "$prefix"; cat "$f"; } >"$meshSeeds/$(basename "$f").bin"
+  done
+  echo "fuzz.sh: fuzzing the mesh files for $seconds s; corpus $meshCorpus, faults into $crashes/"
+  ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_mesh" "$meshCorpus" "$meshSeeds" "$root/tests/fuzz/mesh_regressions" \
+    -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1 \
+    -artifact_prefix="$crashes/" || status=$?
+fi
 if [ "$status" -ne 0 ]; then
   echo "fuzz.sh: the fuzzer found a fault (status $status); inputs in $crashes/:" >&2
   ls -l "$crashes" >&2
   exit 1
 fi
-echo "fuzz.sh: no fault found in $seconds s"
+echo "fuzz.sh: no fault found in $seconds s of each"

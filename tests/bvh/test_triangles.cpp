@@ -209,28 +209,28 @@ TEST_CASE("the BVH over triangles and spheres finds exactly the brute-force hit 
   SECTION("a closed jittered sphere mesh")
   {
     Mixed s;
-    s.add(jitteredSphere<Real>(random, glm::dvec3(0), 5, 16, 32, 0.8));
+    s.add(jitteredSphere<Real>(random, glm::dvec3(0), 5, 10, 20, 0.8));
     checkAgreement(s, 250000, 1, 8);
   }
   SECTION("grids of shared edges, and a sphere mesh far from the origin")
   {
     Mixed s;
-    s.add(grid(12, 6));
-    s.add(jitteredSphere<Real>(random, glm::dvec3(1e3, 2e3, -1e3), 50, 16, 32, 0.5));
+    s.add(grid(8, 6));
+    s.add(jitteredSphere<Real>(random, glm::dvec3(1e3, 2e3, -1e3), 50, 8, 16, 0.5));
     checkAgreement(s, 200000, 2, 2500);
   }
   SECTION("a soup of triangles of every size, slivers and duplicates")
   {
     Mixed s;
-    s.add(triangleSoup(random, 600, 10));
+    s.add(triangleSoup(random, 300, 10));
     checkAgreement(s, 250000, 3, 12);
   }
   SECTION("spheres and triangles together")
   {
     Mixed s;
-    s.spheres = groundScene(random, 200);
-    s.add(jitteredSphere<Real>(random, glm::dvec3(0, 2, 0), 1.5, 12, 24, 0.7));
-    s.add(triangleSoup(random, 300, 11));
+    s.spheres = groundScene(random, 100);
+    s.add(jitteredSphere<Real>(random, glm::dvec3(0, 2, 0), 1.5, 8, 16, 0.7));
+    s.add(triangleSoup(random, 150, 11));
     checkAgreement(s, 250000, 4, 12);
   }
   SECTION("tiny scenes")

@@ -29,7 +29,78 @@ bool printableLine(const std::string& s)
   return true;
 }
 
+// The invariants of a scene's meshes: every index in range, every vertex finite, no triangle without area, the
+// meshes' ranges covering the triangles, unit normals for the smooth meshes' vertices, materials in range.
+std::string checkMeshes(const Scene& scene)
+{
+  for (const Vec3& v : scene.vertices)
+    if (!finite(v))
+      return "a mesh vertex that is not finite was accepted";
+  if (!scene.vertexNormals.empty() && scene.vertexNormals.size() != scene.vertices.size())
+    return "vertex normals that do not match the vertices";
+  std::size_t covered = 0;
+  for (std::size_t m = 0; m < scene.meshes.size(); ++m) {
+    const Mesh& mesh = scene.meshes[m];
+    if (mesh.firstTriangle != covered || mesh.triangleCount == 0)
+      return "a mesh's range of triangles is wrong";
+    covered += mesh.triangleCount;
+    if (mesh.material < 0 || std::size_t(mesh.material) >= scene.materials.size())
+      return "a mesh's material index is out of range";
+    for (std::size_t t = mesh.firstTriangle; t < covered && t < scene.triangles.size(); ++t) {
+      const Triangle& tri = scene.triangles[t];
+      if (tri.mesh != m || tri.material != mesh.material)
+        return "a triangle's mesh or material is wrong";
+      for (std::uint32_t v : tri.v) {
+        if (v >= scene.vertices.size())
+          return "a triangle's vertex index is out of range";
+        if (mesh.smooth && std::abs(glm::length(scene.vertexNormals[v]) - 1) > Real(1e-3))
+          return "a smooth mesh's vertex normal is not unit";
+      }
+      const auto [p0, p1, p2] = scene.triangleVertices(t);
+      if (!(triangleDoubleArea(p0, p1, p2) > 0))
+        return "a degenerate triangle was kept";
+    }
+  }
+  if (covered != scene.triangles.size())
+    return "triangles outside every mesh";
+  return "";
+}
+
+// A message must be one printable line, not too long, starting with `name`.
+std::string checkMessage(const std::string& message, const std::string& name)
+{
+  if (message.rfind(name, 0) != 0)
+    return "the message does not start with the file name: " + message;
+  if (!printableLine(message))
+    return "the message is not one printable UTF-8 line";
+  if (message.size() > 2000)
+    return "the message is longer than 2000 characters";
+  return "";
+}
+
 } // namespace
+
+std::string checkMeshBytes(std::string_view bytes, MeshFormat format)
+{
+  MeshData data;
+  try {
+    data = parseMeshData(std::span<const char>(bytes.data(), bytes.size()), format, "fuzz.mesh");
+  } catch (const MeshError& e) {
+    return checkMessage(e.what(), "fuzz.mesh");
+  }
+  if (data.triangles.empty())
+    return "a mesh without triangles was accepted";
+  if (!data.normals.empty() && data.normals.size() != data.positions.size())
+    return "normals that do not match the positions";
+  for (const Vec3& p : data.positions)
+    if (!finite(p))
+      return "a vertex that is not finite was accepted";
+  for (const auto& tri : data.triangles)
+    for (std::uint32_t v : tri)
+      if (v >= data.positions.size())
+        return "an index out of range was accepted";
+  return "";
+}
 
 std::string checkSceneText(std::string_view text)
 {
@@ -37,17 +108,12 @@ std::string checkSceneText(std::string_view text)
   try {
     scene = parseScene(text, "fuzz.json");
   } catch (const SceneError& e) {
-    const std::string message = e.what();
-    if (message.rfind("fuzz.json:", 0) != 0)
-      return "the message does not start with the file name: " + message;
-    if (!printableLine(message))
-      return "the message is not one printable UTF-8 line";
-    if (message.size() > 2000)
-      return "the message is longer than 2000 characters";
-    return "";
+    return checkMessage(e.what(), "fuzz.json:");
   }
-  if (scene.spheres.empty())
-    return "a scene without spheres was accepted";
+  if (scene.spheres.empty() && scene.triangles.empty())
+    return "a scene without spheres or triangles was accepted";
+  if (std::string problem = checkMeshes(scene); !problem.empty())
+    return problem;
   for (const Sphere& s : scene.spheres) {
     if (!finite(s.center) || !(s.radius > 0) || !std::isfinite(s.radius))
       return "a sphere with a bad centre or radius was accepted";

@@ -3,6 +3,8 @@
 /// replays every input the fuzzer ever found.
 #pragma once
 
+#include "scene/mesh_file.h"
+
 #include <string>
 #include <string_view>
 
@@ -10,9 +12,15 @@ namespace raylife::fuzz {
 
 /// Feeds `text` to parseScene (as file "fuzz.json") and checks what comes back. A SceneError must be one
 /// printable line that starts with "fuzz.json:"; a scene that loads must satisfy every invariant the loader
-/// promises (at least one sphere, radii > 0, colours ≥ 0 and finite, material indices in range, a valid camera).
+/// promises (at least one sphere or triangle, radii > 0, colours ≥ 0 and finite, material indices in range, mesh
+/// indices in range, finite vertices, no degenerate triangle, a valid camera).
 /// Any other exception escapes: that is a bug, and the caller reports it.
 /// @return "" when all is well, otherwise what was wrong.
 std::string checkSceneText(std::string_view text);
+
+/// Feeds `bytes` to parseMeshData as a mesh file of `format` (named "fuzz.mesh") and checks what comes back: a
+/// MeshError must be one printable line that starts with "fuzz.mesh"; a mesh that loads must have triangles, every
+/// index in range and every vertex finite. @return "" when all is well, otherwise what was wrong.
+std::string checkMeshBytes(std::string_view bytes, MeshFormat format);
 
 } // namespace raylife::fuzz

@@ -54,3 +54,18 @@ TEST_CASE("every scene of the seed corpus is handled")
     CHECK(raylife::fuzz::checkSceneText(readAll(file)) == "");
   }
 }
+
+TEST_CASE("every mesh file the mesh fuzzer found or was seeded with is handled")
+{
+  // The fuzz target's input: the first byte chooses the format (even: OBJ, odd: PLY), the rest is the file.
+  const auto files = filesIn(RAYLIFE_FUZZ_MESH_REGRESSIONS);
+  REQUIRE(files.size() >= 3);
+  for (const auto& file : files) {
+    INFO(file.string());
+    const std::string bytes = readAll(file);
+    REQUIRE_FALSE(bytes.empty());
+    const auto format = static_cast<unsigned char>(bytes[0]) % 2 == 0 ? raylife::MeshFormat::Obj
+                                                                      : raylife::MeshFormat::Ply;
+    CHECK(raylife::fuzz::checkMeshBytes(std::string_view(bytes).substr(1), format) == "");
+  }
+}
