@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 build=${1:-build}
 shift || true
 chapters=("$@")
-[ ${#chapters[@]} -gt 0 ] || chapters=(step01_camera step02_sphere step03_lambert step04_shadows step09_bvh)
+[ ${#chapters[@]} -gt 0 ] || chapters=(step01_camera step02_sphere step03_lambert step04_shadows step09_bvh step10_meshes)
 review="$build/golden-review"
 mkdir -p "$review"
 cmake --build "$build" -j2 >/dev/null
