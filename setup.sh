@@ -5,6 +5,7 @@
 #   ./setup.sh --fuzz   also clang's libFuzzer runtime (tests/fuzz)
 #   ./setup.sh --browser also Chromium, for the docs screenshot check
 #   ./setup.sh --bench  also gnuplot, for the benchmark's plots (tools/bench, docs/benchmarks.md)
+#   ./setup.sh --mpi    also Open MPI, for the MPI build (cmake --preset mpi; docs/beyond-one-machine.md)
 set -euo pipefail
 
 packages=(
@@ -12,6 +13,7 @@ packages=(
   libglm-dev                     # vector maths
   libstb-dev                     # PNG reading and writing
   nlohmann-json3-dev             # scene files
+  libopenexr-dev openexr         # EXR images (openexr: exrheader, which a test reads them with)
   catch2                         # tests (version 2)
   doxygen graphviz libjs-mathjax # docs, offline formulas
 )
@@ -20,7 +22,8 @@ for arg in "$@"; do
     --fuzz) packages+=(clang libclang-rt-14-dev libomp-14-dev) ;; # libomp: OpenMP for a clang build
     --browser) packages+=(chromium) ;;
     --bench) packages+=(gnuplot-nox fonts-dejavu-core) ;;
-    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench)" >&2; exit 2 ;;
+    --mpi) packages+=(openmpi-bin libopenmpi-dev) ;;
+    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench, --mpi)" >&2; exit 2 ;;
   esac
 done
 
