@@ -324,8 +324,11 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
       std::cerr << line;
       if (options.samples)
         std::cerr << " (samples " << describeRanges(result.samples) << " of " << *settings.spp << ")";
-      if (ranks.size() > 1)
-        std::cerr << " (" << ranks.size() << " ranks; combining the films took " << ranks.combineSeconds() << " s)";
+      if (ranks.size() > 1) {
+        std::snprintf(line, sizeof line, " (%d ranks; combining their films took %.3f s)", ranks.size(),
+                      ranks.combineSeconds());
+        std::cerr << line;
+      }
       if (settings.adaptive)
         std::cerr << " (adaptive: at most " << result.spp << ", mean " << result.meanSpp << " spp)";
       if (result.badSamples)
