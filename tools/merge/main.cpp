@@ -102,8 +102,8 @@ int main(int argc, char** argv)
       files.emplace_back(variancePath, encodeImage(total.film.varianceOfMean(), variancePath));
     writeFilesAtomically(files);
     if (!quiet) {
-      std::fprintf(stderr, "raylife_merge: %zu films of %s on %s: %dx%d, %lld spp (samples %s), %.2f render s", inputs.size(),
-                   h.chapter.c_str(), h.scene.c_str(), h.width, h.height, static_cast<long long>(h.sampleCount()),
+      std::fprintf(stderr, "raylife_merge: %zu film%s of %s on %s: %dx%d, %lld spp (samples %s), %.2f render s",
+                   inputs.size(), inputs.size() == 1 ? "" : "s", h.chapter.c_str(), h.scene.c_str(), h.width, h.height, static_cast<long long>(h.sampleCount()),
                    describeRanges(h.samples).c_str(), h.seconds);
       std::cerr << " -> " << outputs[0];
       for (std::size_t i = 1; i < outputs.size(); ++i)
