@@ -132,7 +132,7 @@ TEST_CASE("a share of the samples is checked against the spp before any work")
   usage({"--spp", "16", "-o", "a.film", "-o", "b.film"}, "-o is given two .film files; one of each format");
 }
 
-TEST_CASE("-o x.exr holds the PFM's floats - raylife_compare reads it and so does OpenEXR's exrheader")
+TEST_CASE("an EXR output holds the PFM's floats - raylife_compare reads it and so does OpenEXR's exrheader")
 {
   const TempDir dir;
   const Chapter& chapter = kChapters[1];

@@ -112,7 +112,7 @@ TEST_CASE("MPI ranks and job arrays compose: a .film of 2 ranks merges with anot
   CHECK(std::string(merged.begin(), merged.end()) == readFile(dir.path() / "one.pfm"));
 }
 
-TEST_CASE("--time under MPI writes the union of the ranks' samples and says the total spp")
+TEST_CASE("a time budget under MPI writes the union of the ranks' samples and says the total spp")
 {
   const TempDir dir;
   const Outcome o = run(kMpirun,
