@@ -6,6 +6,7 @@
 #   ./setup.sh --browser also Chromium, for the docs screenshot check
 #   ./setup.sh --bench  also gnuplot, for the benchmark's plots (tools/bench, docs/benchmarks.md)
 #   ./setup.sh --embree also Embree 3, the yardstick of tools/mesh_bench (cmake --preset embree)
+#   ./setup.sh --mpi    also Open MPI, for the MPI build (cmake --preset mpi; docs/beyond-one-machine.md)
 set -euo pipefail
 
 packages=(
@@ -15,6 +16,7 @@ packages=(
   nlohmann-json3-dev             # scene files
   libassimp-dev                  # mesh files (OBJ, PLY)
   assimp-testmodels              # chapter 10's model and the mesh loader's tests (real and malformed files)
+  libopenexr-dev openexr         # EXR images (openexr: exrheader, which a test reads them with)
   catch2                         # tests (version 2)
   doxygen graphviz libjs-mathjax # docs, offline formulas
 )
@@ -24,7 +26,8 @@ for arg in "$@"; do
     --browser) packages+=(chromium) ;;
     --bench) packages+=(gnuplot-nox fonts-dejavu-core) ;;
     --embree) packages+=(libembree-dev) ;;
-    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench, --embree)" >&2; exit 2 ;;
+    --mpi) packages+=(openmpi-bin libopenmpi-dev) ;;
+    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench, --mpi, --embree)" >&2; exit 2 ;;
   esac
 done
 

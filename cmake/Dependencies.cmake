@@ -5,6 +5,13 @@ find_package(nlohmann_json 3.10 REQUIRED CONFIG)
 find_package(assimp 5 REQUIRED CONFIG)
 find_package(OpenMP REQUIRED COMPONENTS CXX)
 find_package(Threads REQUIRED)
+# OpenEXR (libopenexr-dev, 3.1 in Debian 12): -o x.exr, and every tool that reads images reads EXR too.
+find_package(OpenEXR 3 REQUIRED CONFIG)
+# MPI (libopenmpi-dev): only in the MPI build (cmake --preset mpi; ./setup.sh --mpi installs it).
+option(RAYLIFE_MPI "Build the chapters as MPI programs (mpirun -np N renders one image over N ranks)" OFF)
+if(RAYLIFE_MPI)
+  find_package(MPI REQUIRED COMPONENTS CXX)
+endif()
 
 # stb: Debian's libstb-dev ships the headers under include/stb and the compiled implementation as libstb.
 find_path(STB_INCLUDE_DIR stb/stb_image_write.h REQUIRED)

@@ -146,7 +146,10 @@ bool endsWith(const std::string& s, const char* suffix)
 }
 } // namespace
 
-bool isImagePath(const std::string& path) { return endsWith(path, ".png") || endsWith(path, ".pfm"); }
+bool isImagePath(const std::string& path)
+{
+  return endsWith(path, ".png") || endsWith(path, ".pfm") || endsWith(path, ".exr");
+}
 
 Image readImage(const std::string& path)
 {
@@ -154,7 +157,9 @@ Image readImage(const std::string& path)
     return readPfm(path);
   if (endsWith(path, ".png"))
     return readPng(path);
-  throw ImageIoError(path + ": unknown image format (expected a .png or .pfm file)");
+  if (endsWith(path, ".exr"))
+    return readExr(path);
+  throw ImageIoError(path + ": unknown image format (expected a .png, .pfm or .exr file)");
 }
 
 std::vector<unsigned char> encodeImage(const Image& image, const std::string& path)
@@ -163,7 +168,9 @@ std::vector<unsigned char> encodeImage(const Image& image, const std::string& pa
     return encodePfm(image);
   if (endsWith(path, ".png"))
     return encodePng(image);
-  throw ImageIoError(path + ": unknown image format (expected a .png or .pfm file)");
+  if (endsWith(path, ".exr"))
+    return encodeExr(image);
+  throw ImageIoError(path + ": unknown image format (expected a .png, .pfm or .exr file)");
 }
 
 namespace {

@@ -1,5 +1,5 @@
 /// @file image_io.h
-/// @brief Image files: PNG (clamped, sRGB-encoded, 8 bits) and PFM (linear float), written atomically.
+/// @brief Image files: PNG (clamped, sRGB-encoded, 8 bits), PFM and OpenEXR (linear float), written atomically.
 #pragma once
 
 #include "render/film.h"
@@ -28,18 +28,25 @@ std::vector<unsigned char> encodePng(const Image& image);
 /// the format requires).
 std::vector<unsigned char> encodePfm(const Image& image);
 
+/// The bytes of an OpenEXR file of `image`: channels R, G and B as 32-bit floats (linear, unclamped, NaN and ∞
+/// kept), ZIP-compressed (lossless), scan lines from the top. @throws ImageIoError if OpenEXR fails.
+std::vector<unsigned char> encodeExr(const Image& image);
+
 /// Reads a PFM file (colour "PF" or grey "Pf", either byte order) into linear floats, row 0 at the top.
 /// @throws ImageIoError naming the file and the fault.
 Image readPfm(const std::string& path);
 /// Reads a PNG file (8 or 16 bits, any channel count) and decodes sRGB to linear. @throws ImageIoError.
 Image readPng(const std::string& path);
-/// Reads a PNG or PFM file, chosen by its extension. @throws ImageIoError.
+/// Reads an OpenEXR file's R, G and B channels (or its Y channel, as grey; any pixel type, converted to float;
+/// a missing one of R, G, B reads as 0) over its data window, row 0 at the top. @throws ImageIoError.
+Image readExr(const std::string& path);
+/// Reads a PNG, PFM or EXR file, chosen by its extension. @throws ImageIoError.
 Image readImage(const std::string& path);
 
-/// True when `path` ends in ".png" or ".pfm" (case-sensitive): the formats raylife writes.
+/// True when `path` ends in ".png", ".pfm" or ".exr" (case-sensitive): the image formats raylife writes.
 bool isImagePath(const std::string& path);
 
-/// Encodes `image` in the format `path`'s extension names (.png or .pfm). @throws ImageIoError otherwise.
+/// Encodes `image` in the format `path`'s extension names (.png, .pfm or .exr). @throws ImageIoError otherwise.
 std::vector<unsigned char> encodeImage(const Image& image, const std::string& path);
 
 /// writeFilesAtomically was cancelled through its `cancel` flag: nothing was written.
@@ -60,7 +67,7 @@ public:
 void writeFilesAtomically(const std::vector<std::pair<std::string, std::vector<unsigned char>>>& files,
                           const std::atomic<bool>* cancel = nullptr);
 
-/// Writes one image (PNG or PFM by extension) atomically. @throws ImageIoError.
+/// Writes one image (PNG, PFM or EXR by extension) atomically. @throws ImageIoError.
 void writeImage(const Image& image, const std::string& path);
 
 } // namespace raylife

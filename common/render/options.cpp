@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <iterator>
 
 namespace raylife {
 
@@ -45,7 +46,7 @@ std::string nearestFlag(const std::string& arg)
 {
   const std::string word = arg.substr(0, arg.find('='));
   static const char* const flags[] = {"--help", "--output", "--variance", "--stats", "--width", "--height", "--spp",
-                                      "--time", "--seed", "--threads", "--max-depth", "--quiet"};
+                                      "--time", "--seed", "--threads", "--max-depth", "--quiet", "--samples"};
   std::string best;
   std::size_t bestDistance = 3;
   for (const char* flag : flags) {
@@ -86,15 +87,17 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
       o.help = true;
     } else if (arg == "-o" || arg == "--output") {
       const std::string path = value();
-      if (!endsWith(path, ".png") && !endsWith(path, ".pfm"))
-        throw UsageError(arg + " '" + path + "': unknown image format (the output must end in .png or .pfm)");
-      if (o.outputs.size() == 2)
-        throw UsageError("-o may be given at most twice (a .png and a .pfm)");
+      const char* kinds[] = {".png", ".pfm", ".exr", ".film"};
+      if (std::none_of(std::begin(kinds), std::end(kinds), [&](const char* k) { return endsWith(path, k); }))
+        throw UsageError(arg + " '" + path + "': unknown format (the output must end in .png, .pfm, .exr or .film)");
+      for (const std::string& given : o.outputs) // (one file given twice is reported below)
+        if (given != path && given.substr(given.rfind('.')) == path.substr(path.rfind('.')))
+          throw UsageError("-o is given two " + path.substr(path.rfind('.')) + " files; one of each format");
       o.outputs.push_back(path);
     } else if (arg == "--variance") {
       o.variancePath = value();
-      if (!endsWith(o.variancePath, ".pfm"))
-        throw UsageError("--variance '" + o.variancePath + "': the variance image must be a .pfm file");
+      if (!endsWith(o.variancePath, ".pfm") && !endsWith(o.variancePath, ".exr"))
+        throw UsageError("--variance '" + o.variancePath + "': the variance image must be a .pfm or .exr file");
     } else if (arg == "--stats") {
       o.statsPath = value();
       if (o.statsPath.empty())
@@ -105,6 +108,13 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
       o.height = int(parseInteger(arg, value(), 1, kMaxPixels));
     } else if (arg == "--spp") {
       o.spp = int(parseInteger(arg, value(), 1, 1 << 24));
+    } else if (arg == "--samples") {
+      const std::string text = value();
+      const std::size_t colon = text.find(':');
+      if (colon == std::string::npos)
+        throw UsageError("--samples expects FIRST:COUNT (e.g. 0:64), got '" + text + "'");
+      o.samples = std::pair(int(parseInteger("--samples' FIRST", text.substr(0, colon), 0, (1 << 24) - 1)),
+                            int(parseInteger("--samples' COUNT", text.substr(colon + 1), 1, 1 << 24)));
     } else if (arg == "--time") {
       o.seconds = parsePositive(arg, value());
     } else if (arg == "--seed") {
@@ -131,6 +141,14 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
   }
   if (o.spp && o.seconds)
     throw UsageError("give --spp or --time, not both");
+  if (o.samples && !o.spp)
+    throw UsageError("--samples takes a share of the samples of --spp N: give --spp");
+  if (o.samples && std::int64_t(o.samples->first) + o.samples->second > *o.spp)
+    throw UsageError("--samples " + std::to_string(o.samples->first) + ":" + std::to_string(o.samples->second) +
+                     " reaches past --spp " + std::to_string(*o.spp) + " (sample indices are 0 to " +
+                     std::to_string(*o.spp - 1) + ")");
+  if (o.samples && o.adaptive)
+    throw UsageError("--adaptive needs every sample of a pixel in one process; it cannot take --samples");
   // Every file written must be a different file: two renames onto one name would silently keep only one.
   std::vector<std::string> written = o.outputs;
   for (const std::string* extra : {&o.variancePath, &o.statsPath})
@@ -146,20 +164,22 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
 std::string usageText(const std::string& binary, const std::string& defaultScene)
 {
   return "usage: " + binary +
-         " [SCENE.json] [-o FILE.png|FILE.pfm] [--width W] [--height H]\n"
+         " [SCENE.json] [-o FILE.png|.pfm|.exr|.film] [--width W] [--height H]\n"
          "       [--spp N | --time SECONDS] [--seed S] [--threads T] [--max-depth D] [--quiet] [--help]\n"
          "\n"
          "  SCENE.json         scene file (default: " + defaultScene + ")\n"
-         "  -o FILE            output image, .png (clamped, sRGB) or .pfm (linear, unclamped); may be\n"
-         "                     given twice (default: out/" + binary + ".png)\n"
+         "  -o FILE            output image, .png (clamped, sRGB), .pfm or .exr (linear, unclamped), or\n"
+         "                     .film (exact sums, for raylife_merge); one of each (default: out/" + binary + ".png)\n"
          "  --width W          image width in pixels (default: the scene's)\n"
          "  --height H         image height in pixels (default: the scene's)\n"
          "  --spp N            samples per pixel (default: the chapter's)\n"
          "  --time SECONDS     render progressively until SECONDS have passed, then write\n"
+         "  --samples F:C      only sample indices F to F+C-1 of --spp N (a job of an array; merge\n"
+         "                     the .film outputs with raylife_merge)\n"
          "  --seed S           random seed; the same seed gives the same image on any thread count\n"
          "  --threads T        threads (default: every core)\n"
          "  --max-depth D      longest path, in bounces (chapters that recurse)\n"
-         "  --variance FILE    also write each pixel's variance of the mean, as PFM\n"
+         "  --variance FILE    also write each pixel's variance of the mean, as PFM or EXR\n"
          "  --stats FILE       also write the render's figures as JSON\n"
          "  --quiet            no progress bar and no summary line\n"
          "  --verbose          print the render's plan (what the scene lets it skip) on standard error\n"

@@ -6,6 +6,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace raylife {
@@ -13,13 +14,15 @@ namespace raylife {
 /// What the command line asked for. Zero or empty means "the chapter's or the scene's default".
 struct RenderOptions {
   std::string scenePath;            ///< Scene file; empty: the chapter's default scene.
-  std::vector<std::string> outputs; ///< Up to two image files (.png and/or .pfm); empty: out/BINARY.png.
-  std::string variancePath;         ///< --variance: PFM of each pixel's variance of the mean; empty: none.
+  std::vector<std::string> outputs; ///< Output files, one per format (.png, .pfm, .exr, .film); empty: out/BINARY.png.
+  std::string variancePath;         ///< --variance: PFM or EXR of each pixel's variance of the mean; empty: none.
   std::string statsPath;            ///< --stats: a JSON file of the render's figures; empty: none.
   int width = 0;                    ///< --width, pixels; 0: the scene's.
   int height = 0;                   ///< --height, pixels; 0: the scene's.
   std::optional<int> spp;           ///< --spp: samples per pixel, ≥ 1.
   std::optional<double> seconds;    ///< --time: render until this many seconds have passed, > 0.
+  /// --samples FIRST:COUNT: only sample indices FIRST .. FIRST + COUNT − 1 of --spp (which must hold them).
+  std::optional<std::pair<int, int>> samples;
   std::uint64_t seed = 0;           ///< --seed.
   int threads = 0;                  ///< --threads, ≥ 1; 0: every core.
   std::optional<int> maxDepth;      ///< --max-depth: longest path in bounces, ≥ 0.
@@ -38,8 +41,9 @@ public:
 };
 
 /// Parses argv[1..argc). @throws UsageError on an unknown flag (suggesting the nearest known one), a missing or
-/// malformed value, a value out of range, more than one scene, more than two outputs, an output that is not .png
-/// or .pfm (.pfm for --variance), one file given as two outputs, or both --spp and --time.
+/// malformed value, a value out of range, more than one scene, two outputs of one format, an output that is not
+/// .png, .pfm, .exr or .film (.pfm or .exr for --variance), one file given as two outputs, both --spp and --time,
+/// or --samples without --spp holding it (or with --adaptive).
 RenderOptions parseCommandLine(int argc, const char* const* argv);
 
 /// The --help text for a binary called `binary` whose default scene is `defaultScene`.

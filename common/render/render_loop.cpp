@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 namespace raylife {
 
@@ -72,22 +73,49 @@ void drawProgress(double fraction, double elapsed)
 
 } // namespace
 
+std::vector<SampleRange> SampleShare::ranges(int taken) const
+{
+  std::vector<SampleRange> out;
+  for (int i = 0; i < taken;) {
+    // A run of consecutive indices: the rest of the range, or of the block.
+    const int run = range ? taken - i : std::min(taken - i, kSampleBlock - i % kSampleBlock);
+    const int first = index(i);
+    if (!out.empty() && out.back().end() == first)
+      out.back().count += run;
+    else
+      out.push_back({first, run});
+    i += run;
+  }
+  return out;
+}
+
 RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
                     const TraceFunction& trace)
 {
+  const SampleShare& share = settings.share;
+  if (settings.adaptive && (share.range || share.ranks > 1))
+    throw std::invalid_argument("adaptive sampling needs every sample of every pixel in one process");
+  if (share.range && (!settings.spp || share.range->first < 0 || share.range->count < 0 ||
+                      std::int64_t(share.range->first) + share.range->count > *settings.spp))
+    throw std::invalid_argument("a range of samples needs a fixed spp that holds it");
   const int width = camera.width(), height = camera.height();
   RenderResult result{Film(width, height)};
   const std::vector<Tile> allTiles = makeTiles(width, height);
   std::vector<Tile> tiles = allTiles; // the work of a batch (adaptive sampling narrows it to the active pixels)
   const int threads = settings.threads > 0 ? settings.threads : omp_get_max_threads();
-  const int target = settings.spp ? *settings.spp : (settings.seconds ? 0 : 1); // 0: until the time is spent
+  // The samples to take here; with a time budget, until the time is spent, but at most this process's share of
+  // the most a pixel may hold.
+  const bool untilTime = !settings.spp && settings.seconds;
+  const int target = untilTime ? int(kMaxSamplesPerPixel / std::uint32_t(std::max(1, share.ranks)))
+                               : settings.spp ? (share.range ? share.range->count : *settings.spp) : 1;
   const int strata = strataPerSide(settings.adaptive ? std::nullopt : settings.spp);
 
   const auto start = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
   double lastDraw = -1;
 
-  // Samples are taken in batches: batch [s0, s1) gives every pixel samples s0 .. s1 − 1, in that order. A batch
+  // Samples are taken in batches: batch [s0, s1) gives every pixel this process's samples s0 .. s1 − 1 (its i-th
+  // is sample share.index(i) of the render; the film's sums do not depend on the order they come in). A batch
   // is one OpenMP region, so a batch of many samples keeps the threads busy without a fork and join per sample
   // (which, on a loaded machine, costs more than the samples of a small image). Batches double in size, and are
   // cut to about kBatchSeconds (and to what is left of a time budget) so that a stop request is answered soon.
@@ -97,7 +125,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
   std::size_t activeCount = active.size();
   std::uint64_t samplesTaken = 0;
   int nextCheckpoint = kAdaptiveMinSamples;
-  while (target == 0 || done < target) {
+  while (done < target) {
     if (settings.adaptive && done == nextCheckpoint) {
       // A checkpoint: stop each pixel whose estimated relative error is below the threshold, and its eight
       // neighbours' too. (Alone, a pixel on an edge whose samples all happened to miss the object shows no
@@ -149,8 +177,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
         budget = std::min(budget, *settings.seconds - elapsed());
       batch = std::clamp(int(budget / std::max(perSample, 1e-9)), 1, batch);
     }
-    if (target > 0)
-      batch = std::min(batch, target - done);
+    batch = std::min(batch, target - done);
     if (settings.adaptive) // end the batch at the next checkpoint
       batch = std::min(batch, nextCheckpoint - done);
     const int s0 = done, s1 = done + batch;
@@ -169,14 +196,15 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
             if (!active[std::size_t(y) * std::size_t(width) + std::size_t(x)])
               continue; // stopped by adaptive sampling
             const PixelSequence sequence(settings.seed, x, y);
-            for (int s = s0; s < s1; ++s) {
+            for (int i = s0; i < s1; ++i) {
               // One pixel sample: its own random numbers, a film position, the chapter's estimate.
+              const int s = share.index(i);
               Sampler sampler(settings.seed, x, y, std::uint64_t(s));
               const Vec2 offset = pixelOffset(settings.pixelSampling, s, strata, sampler, sequence);
               const Ray ray = camera.ray(Vec2(Real(x), Real(y)) + offset);
               Color L = trace(scene, ray, sampler, settings.maxDepth);
-              // Guard the film: a NaN, infinite or negative sample is counted and replaced by black.
-              if (!isFinite(L) || L.r < 0 || L.g < 0 || L.b < 0) {
+              // Guard the film: a NaN, infinite, negative or huge sample is counted and replaced by black.
+              if (!Film::holds(L)) {
                 ++bad;
                 L = Color(0);
               }
@@ -190,7 +218,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
           if (now - lastDraw > 0.1) {
             lastDraw = now;
             const double samples = s0 + double(batch) * tilesFinished / double(tiles.size());
-            drawProgress(target > 0 ? samples / target : now / *settings.seconds, now);
+            drawProgress(untilTime ? now / *settings.seconds : samples / target, now);
           }
         }
       }
@@ -203,6 +231,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
     samplesTaken += std::uint64_t(batch) * activeCount;
   }
   result.meanSpp = double(samplesTaken) / double(active.size());
+  result.samples = share.ranges(done);
   result.seconds = elapsed();
   if (settings.progress) {
     drawProgress(1.0, result.seconds);

@@ -12,6 +12,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace raylife {
 
@@ -30,6 +31,42 @@ enum class PixelSampling {
   Jittered,
 };
 
+/// With a time budget, a share of the samples is made of aligned blocks of this many sample indices: a pixel's
+/// PixelSequence (rng.h) is stratified in every such block, so each process's samples are spread well.
+inline constexpr int kSampleBlock = 16;
+
+/// A run of sample indices [first, first + count) of every pixel.
+struct SampleRange {
+  int first = 0; ///< The first sample index, ≥ 0.
+  int count = 0; ///< How many, ≥ 0.
+  /// One past the last.
+  int end() const { return first + count; }
+  /// Memberwise equality.
+  bool operator==(const SampleRange&) const = default;
+};
+
+/// Which of a render's sample indices this process takes (job arrays, MPI ranks; docs/beyond-one-machine.md).
+/// Sample s of pixel (x, y) depends only on (seed, x, y, s), so any partition of the indices, rendered anywhere
+/// and merged (Film::merge), gives the image of the whole.
+struct SampleShare {
+  /// With a fixed spp: the indices taken, within [0, spp); nothing: all of them.
+  std::optional<SampleRange> range;
+  /// With a time budget: the processes sharing the samples (≥ 1) and this one's place among them (0 ≤ rank <
+  /// ranks). Blocks of kSampleBlock indices go round: process r takes blocks r, r + ranks, r + 2·ranks, ...
+  int rank = 0;
+  int ranks = 1; ///< See rank.
+
+  /// The global index of this process's i-th sample (i ≥ 0).
+  int index(int i) const
+  {
+    if (range)
+      return range->first + i;
+    return ((i / kSampleBlock) * ranks + rank) * kSampleBlock + i % kSampleBlock;
+  }
+  /// The indices of this process's first `taken` samples, as sorted, disjoint, coalesced ranges.
+  std::vector<SampleRange> ranges(int taken) const;
+};
+
 /// How to render, resolved from the options and the chapter's defaults.
 struct RenderSettings {
   std::optional<int> spp;          ///< Samples per pixel, or nothing with `seconds`.
@@ -44,6 +81,8 @@ struct RenderSettings {
   /// Adaptive sampling: a pixel stops taking samples once its Film::relativeError falls below this (> 0).
   /// Nothing: every pixel takes every sample. See render().
   std::optional<double> adaptive;
+  /// The sample indices this process takes (all, by default). Adaptive sampling needs them all.
+  SampleShare share;
 };
 
 /// What a render produced and what it cost.
@@ -55,6 +94,7 @@ struct RenderResult {
   std::uint64_t badSamples = 0; ///< Samples that were NaN, infinite or negative: replaced by 0 and counted.
   bool interrupted = false;     ///< Stopped early through RenderSettings::stop.
   double meanSpp = 0;           ///< Mean samples per pixel (equal to spp unless sampling was adaptive).
+  std::vector<SampleRange> samples{}; ///< The sample indices taken (RenderSettings::share), coalesced.
 };
 
 /// Adaptive sampling looks at a pixel's error only once it has this many samples, and then again each time the
@@ -85,6 +125,10 @@ inline constexpr double kAdaptiveMeanFloor = 1.0 / 256.0;
 /// positions then follow the pixel's PixelSequence (the grid of strata assumes every pixel takes every sample).
 /// Biased, slightly: the stopping rule correlates with the samples.
 /// The render ends when every pixel has stopped, or at `spp` (then the most any pixel took) or `seconds`.
+/// With a `share` of the samples, it takes only those: with `spp`, the range's indices (`spp` still sets the
+/// strata); with `seconds`, its blocks; RenderResult::spp then counts the samples taken. A pixel takes at most
+/// kMaxSamplesPerPixel samples (over all the shares). @throws std::invalid_argument for adaptive sampling with
+/// a share, or a range outside [0, spp).
 RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
                     const TraceFunction& trace);
 

@@ -1,6 +1,8 @@
 #include "render/runner.h"
 
+#include "render/film_file.h"
 #include "render/image_io.h"
+#include "render/ranks.h"
 #include "scene/scene_plan.h"
 
 #include <omp.h>
@@ -22,24 +24,6 @@
 #endif
 
 namespace raylife {
-
-namespace {
-
-// Two images of one height side by side: `left`, then `right`.
-Image sideBySide(const Image& left, const Image& right)
-{
-  Image both(left.width + right.width, left.height);
-  for (int y = 0; y < left.height; ++y)
-    for (int c = 0; c < 3; ++c) {
-      for (int x = 0; x < left.width; ++x)
-        both.at(x, y, c) = left.at(x, y, c);
-      for (int x = 0; x < right.width; ++x)
-        both.at(left.width + x, y, c) = right.at(x, y, c);
-    }
-  return both;
-}
-
-} // namespace
 
 std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven)
 {
@@ -199,22 +183,25 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
 {
   const std::string name = chapter.binary;
+  // One process, or the ranks of an MPI job: every rank goes through the same steps, only rank 0 speaks and writes.
+  Ranks ranks(argc, argv, &gSignals);
   RenderOptions options;
   try {
     options = parseCommandLine(argc, argv);
   } catch (const UsageError& e) {
     std::cerr << name << ": " << e.what() << "\n" << "usage: " << name << " [SCENE.json] [options]; see --help\n";
-    return 2;
+    return ranks.finish(2);
   }
   const std::string defaultScene = sceneDirectory() + "/" + chapter.defaultScene;
   if (options.help) {
     std::cout << usageText(name, defaultScene);
-    return 0;
+    return ranks.finish(0);
   }
 
   try {
     // Load and check everything before any work: scene, size, outputs.
-    const Scene scene = loadScene(options.scenePath.empty() ? defaultScene : options.scenePath);
+    const std::string scenePath = options.scenePath.empty() ? defaultScene : options.scenePath;
+    const Scene scene = loadScene(scenePath);
     for (const std::string& w : scene.warnings)
       std::cerr << name << ": warning: " << w << "\n";
     const int width = options.width ? options.width : scene.camera.width;
@@ -222,19 +209,21 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     if (std::int64_t(width) * height > kMaxPixels) {
       std::cerr << name << ": --width/--height: an image of " << width << "x" << height << " pixels is larger than the "
                 << kMaxPixels << " pixels raylife allows\n";
-      return 2;
+      return ranks.finish(2);
     }
     std::vector<std::string> outputs = options.outputs;
     if (outputs.empty()) {
-      std::filesystem::create_directories("out");
+      if (ranks.root())
+        std::filesystem::create_directories("out");
       outputs.push_back("out/" + name + ".png");
     }
-    // (parseCommandLine has checked the extensions.)
+    // (parseCommandLine has checked the extensions.) Only rank 0 writes.
     for (const std::string& path : outputs)
-      checkWritable(path);
-    if (!options.variancePath.empty())
+      if (ranks.root())
+        checkWritable(path);
+    if (!options.variancePath.empty() && ranks.root())
       checkWritable(options.variancePath);
-    if (!options.statsPath.empty())
+    if (!options.statsPath.empty() && ranks.root())
       checkWritable(options.statsPath);
     if (const std::string ignored = describeIgnored(scene, chapter.uses, options.maxDepth.has_value());
         !ignored.empty() && !options.quiet)
@@ -252,33 +241,70 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     settings.progress = !options.quiet && ::isatty(STDERR_FILENO);
     settings.stop = &gStopRequested;
     settings.adaptive = applyPlanOptions(name, scene, chapter, options); // --verbose, --adaptive
+    if (options.samples)
+      settings.share.range = SampleRange{options.samples->first, options.samples->second};
+    if (settings.adaptive && ranks.size() > 1)
+      throw UsageError("--adaptive needs every sample of a pixel in one process; it cannot be split over " +
+                       std::to_string(ranks.size()) + " ranks");
+    // What a partial film (.film) says of this render; its key is also what the ranks must agree on.
+    FilmHeader filmHeader;
+    filmHeader.chapter = name;
+    filmHeader.scene = std::filesystem::path(scenePath).filename().string();
+    // The fingerprint covers the scene file and the geometry its mesh files gave (a mesh file that differs between
+    // machines changes the scene without changing its file).
+    filmHeader.sceneHash = hashFile(scenePath);
+    for (const std::string_view loaded :
+         {std::string_view(reinterpret_cast<const char*>(scene.vertices.data()), scene.vertices.size() * sizeof(Vec3)),
+          std::string_view(reinterpret_cast<const char*>(scene.triangles.data()),
+                           scene.triangles.size() * sizeof(Triangle))})
+      if (!loaded.empty())
+        filmHeader.sceneHash = filmHeader.sceneHash * 0x100000001b3ull ^ hashBytes(loaded);
+    filmHeader.spp = settings.spp.value_or(0);
+    filmHeader.seed = settings.seed;
+    filmHeader.maxDepth = settings.maxDepth;
+    filmHeader.height = height;
+    filmHeader.width = chapter.besideTrace ? 2 * width : width;
+    const std::string settingsKey = filmHeader.renderKey() + ", time " + std::to_string(settings.seconds.value_or(0));
+    if (const int failed = ranks.checkpoint(0, filmHeader.sceneHash, hashBytes(settingsKey)))
+      return failed;
 
     // Render, with Ctrl-C and SIGTERM turned into "stop after this pass" (until the images are written).
     const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
     const TraceFunction trace = makeTrace(scene);
-    RenderResult result = render(scene, camera, settings, trace);
+    RenderResult result = ranks.render(scene, camera, settings, trace);
     std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
     if (chapter.besideTrace) {
       RenderSettings same = settings;
-      same.spp = result.spp;
+      if (!same.share.range) // (a share of --spp keeps its range; otherwise the samples the first image got)
+        same.spp = result.spp;
       same.seconds.reset();
-      beside = render(scene, camera, same, chapter.besideTrace);
+      beside = ranks.render(scene, camera, same, chapter.besideTrace);
       result.rays += beside->rays;
       result.seconds += beside->seconds;
       result.badSamples += beside->badSamples;
       result.interrupted = result.interrupted || beside->interrupted;
     }
 
-    // Write every image, all or nothing.
+    // Write every image, all or nothing (rank 0 only: it holds the whole film).
+    if (!ranks.root())
+      return ranks.finish(result.interrupted ? 130 : 0);
     std::vector<std::pair<std::string, std::vector<unsigned char>>> files;
-    const Image mean = beside ? sideBySide(result.film.mean(), beside->film.mean()) : result.film.mean();
-    for (const std::string& path : outputs)
-      files.emplace_back(path, encodeImage(mean, path));
+    const Film film = beside ? sideBySide(result.film, beside->film) : std::move(result.film);
+    const Image mean = film.mean();
+    for (const std::string& path : outputs) {
+      if (path.ends_with(".film")) {
+        filmHeader.samples = result.samples;
+        filmHeader.rays = result.rays;
+        filmHeader.badSamples = result.badSamples;
+        filmHeader.seconds = result.seconds * ranks.size();
+        files.emplace_back(path, encodeFilm({filmHeader, film}));
+      } else {
+        files.emplace_back(path, encodeImage(mean, path));
+      }
+    }
     if (!options.variancePath.empty())
-      files.emplace_back(options.variancePath,
-                         encodePfm(beside ? sideBySide(result.film.varianceOfMean(), beside->film.varianceOfMean())
-                                          : result.film.varianceOfMean()));
+      files.emplace_back(options.variancePath, encodeImage(film.varianceOfMean(), options.variancePath));
     if (!options.statsPath.empty()) {
       std::ostringstream json;
       json << "{\"chapter\": \"" << name << "\", \"width\": " << mean.width << ", \"height\": " << height
@@ -287,6 +313,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
            << (settings.threads > 0 ? settings.threads : omp_get_max_threads())
            << ", \"interrupted\": " << (result.interrupted ? "true" : "false")
            << ", \"mean_spp\": " << result.meanSpp << ", \"adaptive\": " << (settings.adaptive ? "true" : "false")
+           << ", \"ranks\": " << ranks.size()
            << "}\n";
       const std::string text = json.str();
       files.emplace_back(options.statsPath, std::vector<unsigned char>(text.begin(), text.end()));
@@ -296,7 +323,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
       writeFilesAtomically(files, &gCancelWrite);
     } catch (const WriteCancelled&) {
       std::cerr << name << ": interrupted twice: stopped without writing\n";
-      return 130;
+      return ranks.finish(130);
     }
     gWriting = false;
 
@@ -306,6 +333,13 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
       std::snprintf(line, sizeof line, "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s", name.c_str(), mean.width,
                     height, result.spp, result.seconds, formatCount(result.rays).c_str(), mrays);
       std::cerr << line;
+      if (options.samples)
+        std::cerr << " (samples " << describeRanges(result.samples) << " of " << *settings.spp << ")";
+      if (ranks.size() > 1) {
+        std::snprintf(line, sizeof line, " (%d ranks; combining their films took %.3f s)", ranks.size(),
+                      ranks.combineSeconds());
+        std::cerr << line;
+      }
       if (settings.adaptive)
         std::cerr << " (adaptive: at most " << result.spp << ", mean " << result.meanSpp << " spp)";
       if (result.badSamples)
@@ -317,7 +351,14 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
         std::cerr << ", " << outputs[i];
       std::cerr << "\n";
     }
-    return result.interrupted ? 130 : 0;
+    return ranks.finish(result.interrupted ? 130 : 0);
+  } catch (const RanksStopped& stopped) {
+    return stopped.status; // a rank failed; rank 0 has said why
+  } catch (const UsageError& e) {
+    std::cerr << name << ": " << e.what() << "\n";
+    return ranks.finish(2);
+  } catch (const FilmError& e) {
+    std::cerr << name << ": " << e.what() << "\n";
   } catch (const SceneError& e) {
     std::cerr << name << ": " << e.what() << "\n";
   } catch (const ImageIoError& e) {
@@ -329,7 +370,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
   } catch (const std::exception& e) {
     std::cerr << name << ": internal error: " << e.what() << "; nothing was written (please report this)\n";
   }
-  return 1;
+  return ranks.finish(1);
 }
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace)

@@ -35,7 +35,8 @@ struct CameraSpec {
 };
 
 /// Largest image the loader and the command line accept, in pixels (width × height): 8192 × 8192.
-/// The film keeps about 56 bytes a pixel, so this bounds its memory at about 3.5 GiB.
+/// The film keeps about 100 bytes a pixel (its exact fixed-point sums, film.h), so this bounds its memory at about
+/// 6.3 GiB.
 inline constexpr std::int64_t kMaxPixels = std::int64_t(1) << 26;
 
 /// Scenes with at most this many primitives (spheres and triangles) are searched as a flat list; larger ones through

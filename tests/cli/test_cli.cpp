@@ -272,17 +272,17 @@ TEST_CASE("command-line faults exit with status 2 and write nothing")
   {
     expectUsageError({"--spp", "4", "--time", "1"}, "give --spp or --time, not both");
   }
-  SECTION("an output that is neither PNG nor PFM")
+  SECTION("an output that is neither PNG - PFM - EXR nor a film")
   {
-    expectUsageError({"-o", "out.jpg"}, "-o 'out.jpg': unknown image format (the output must end in .png or .pfm)");
+    expectUsageError({"-o", "out.jpg"}, "-o 'out.jpg': unknown format (the output must end in .png, .pfm, .exr or .film)");
   }
   SECTION("the same output twice")
   {
     expectUsageError({"-o", "a.png", "-o", "a.png"}, "'a.png' is given as two outputs; each output needs its own file");
   }
-  SECTION("three outputs")
+  SECTION("two outputs of one format")
   {
-    expectUsageError({"-o", "a.png", "-o", "b.pfm", "-o", "c.png"}, "-o may be given at most twice (a .png and a .pfm)");
+    expectUsageError({"-o", "a.png", "-o", "b.pfm", "-o", "c.png"}, "-o is given two .png files; one of each format");
   }
   SECTION("two scenes")
   {

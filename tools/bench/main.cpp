@@ -366,12 +366,13 @@ std::string readText(const fs::path& path)
 }
 
 /// Runs `binary` on `scene` with `args`, writing its image (and variance) to `base`.pfm (.var.pfm) and its
-/// stats to `base`.json. Standard error goes to `log`. @throws std::runtime_error when the program fails.
+/// stats to `base`.json, after `launcher` (e.g. "mpirun -np 4 "; empty: none). Standard error goes to `log`.
+/// @throws std::runtime_error when the program fails.
 RunResult runChapter(const fs::path& binary, const fs::path& scene, const Plan& plan, const std::vector<std::string>& args,
-                     const fs::path& base, bool variance, const fs::path& log)
+                     const fs::path& base, bool variance, const fs::path& log, const std::string& launcher = "")
 {
   const fs::path image = base.string() + ".pfm", var = base.string() + ".var.pfm", stats = base.string() + ".json";
-  std::string command = shellQuote(binary.string()) + " " + shellQuote(scene.string()) + " --width " +
+  std::string command = launcher + shellQuote(binary.string()) + " " + shellQuote(scene.string()) + " --width " +
                         std::to_string(plan.width) + " --height " + std::to_string(plan.height) + " --quiet -o " +
                         shellQuote(image.string()) + " --stats " + shellQuote(stats.string());
   if (variance)
@@ -417,8 +418,13 @@ RunResult cachedRender(const ReferenceKey& key, const Plan& plan, const fs::path
   }
   rendered = true;
   const fs::path tmp = cacheDir / ("partial-" + hash);
+  // RAYLIFE_RANKS=N renders references over N MPI ranks (chapters of the MPI build: --bin build-mpi/bin): the same
+  // bytes as one process (docs/beyond-one-machine.md), so the cache does not care.
+  const char* ranks = std::getenv("RAYLIFE_RANKS");
+  const std::string launcher = ranks && *ranks ? "mpirun -np " + shellQuote(ranks) + " " : "";
   RunResult r = runChapter(key.binaryPath, key.scenePath, plan,
-                           {"--spp", std::to_string(key.spp), "--seed", std::to_string(key.seed)}, tmp, true, log);
+                           {"--spp", std::to_string(key.spp), "--seed", std::to_string(key.seed)}, tmp, true, log,
+                           launcher);
   // Only a whole set enters the cache: the stats file, written last, marks it complete.
   fs::rename(tmp.string() + ".pfm", base.string() + ".pfm");
   fs::rename(tmp.string() + ".var.pfm", base.string() + ".var.pfm");

@@ -1,0 +1,101 @@
+// OpenEXR files (image_io.h): 32-bit float RGB, written into memory so that writeFilesAtomically can put them in
+// place all or nothing, and read with any channel type OpenEXR converts to float.
+#include "render/image_io.h"
+
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfIO.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfOutputFile.h>
+
+#include <algorithm>
+#include <cstring>
+
+namespace raylife {
+
+namespace {
+
+// An OpenEXR output stream into a byte vector. OpenEXR seeks back to fill in the table of line offsets.
+class MemoryStream : public Imf::OStream {
+public:
+  MemoryStream() : Imf::OStream("memory") {}
+  void write(const char c[], int n) override
+  {
+    const std::size_t end = std::size_t(position_) + std::size_t(n);
+    if (bytes_.size() < end)
+      bytes_.resize(end);
+    std::memcpy(bytes_.data() + position_, c, std::size_t(n));
+    position_ = end;
+  }
+  std::uint64_t tellp() override { return position_; }
+  void seekp(std::uint64_t pos) override { position_ = pos; }
+  std::vector<unsigned char> take() { return std::move(bytes_); }
+
+private:
+  std::vector<unsigned char> bytes_;
+  std::uint64_t position_ = 0;
+};
+
+} // namespace
+
+std::vector<unsigned char> encodeExr(const Image& image)
+{
+  // A scan-line file of three FLOAT channels, ZIP-compressed (lossless), display window = data window.
+  Imf::Header header(image.width, image.height);
+  for (const char* name : {"R", "G", "B"})
+    header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+  Imf::FrameBuffer frame;
+  const std::size_t xStride = 3 * sizeof(float), yStride = xStride * std::size_t(image.width);
+  char* base = reinterpret_cast<char*>(const_cast<float*>(image.pixels.data())); // OpenEXR only reads it here
+  for (int c = 0; c < 3; ++c)
+    frame.insert(c == 0 ? "R" : c == 1 ? "G" : "B",
+                 Imf::Slice(Imf::FLOAT, base + std::size_t(c) * sizeof(float), xStride, yStride));
+  MemoryStream stream;
+  try {
+    Imf::OutputFile file(stream, header);
+    file.setFrameBuffer(frame);
+    file.writePixels(image.height);
+  } catch (const std::exception& e) {
+    throw ImageIoError("cannot encode an EXR of " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                       ": " + e.what());
+  }
+  return stream.take();
+}
+
+Image readExr(const std::string& path)
+{
+  try {
+    Imf::InputFile file(path.c_str());
+    const Imath::Box2i window = file.header().dataWindow();
+    const long width = long(window.max.x) - window.min.x + 1, height = long(window.max.y) - window.min.y + 1;
+    if (width <= 0 || height <= 0 || width * height > (1L << 28))
+      throw ImageIoError(path + ": bad EXR data window (" + std::to_string(width) + "x" + std::to_string(height) + ")");
+    const Imf::ChannelList& channels = file.header().channels();
+    const bool rgb = channels.findChannel("R") || channels.findChannel("G") || channels.findChannel("B");
+    const bool grey = !rgb && channels.findChannel("Y");
+    if (!rgb && !grey)
+      throw ImageIoError(path + ": the EXR has no R, G, B or Y channel");
+    Image image{int(width), int(height)};
+    // OpenEXR addresses pixel (x, y) of the data window at base + x·xStride + y·yStride.
+    const std::size_t xStride = 3 * sizeof(float), yStride = xStride * std::size_t(width);
+    char* base = reinterpret_cast<char*>(image.pixels.data()) - std::ptrdiff_t(window.min.x) * std::ptrdiff_t(xStride) -
+                 std::ptrdiff_t(window.min.y) * std::ptrdiff_t(yStride);
+    Imf::FrameBuffer frame;
+    for (int c = 0; c < (grey ? 1 : 3); ++c) // a missing channel reads as 0
+      frame.insert(grey ? "Y" : c == 0 ? "R" : c == 1 ? "G" : "B",
+                   Imf::Slice(Imf::FLOAT, base + std::size_t(c) * sizeof(float), xStride, yStride, 1, 1, 0.0));
+    file.setFrameBuffer(frame);
+    file.readPixels(window.min.y, window.max.y);
+    if (grey)
+      for (std::size_t i = 0; i < image.pixels.size(); i += 3)
+        image.pixels[i + 1] = image.pixels[i + 2] = image.pixels[i];
+    return image;
+  } catch (const ImageIoError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw ImageIoError(path + ": cannot read the EXR: " + e.what());
+  }
+}
+
+} // namespace raylife
