@@ -47,6 +47,7 @@ template <class T> struct TriangleHit {
 /// t in [tmin, tmax), or nothing. A degenerate triangle (zero area) is never hit.
 ///
 /// @param o the ray's origin. @param d its direction (unit in raylife, but any non-zero d works).
+/// @param p0,p1,p2 the triangle's corners, in any winding (both sides are hit).
 /// @param tmin,tmax the interval; contract 0 ≤ tmin. Besides, t is accepted only when it is provably greater than
 ///   0 (by the bound on its rounding error that pbrt-v4 derives), so a ray leaving a surface does not find that
 ///   surface again at t ≈ 0.

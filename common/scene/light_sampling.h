@@ -101,7 +101,9 @@ inline constexpr Real kMaxSphericalTriangleArea = Real(6.22);
 /// A triangle as seen from a point: the unit directions towards its corners (the corners of a triangle on the
 /// unit sphere) and the solid angle they bound.
 template <class T> struct SphericalTriangle {
-  TVec3<T> a, b, c; ///< Unit directions from the point towards p0, p1, p2.
+  TVec3<T> a; ///< Unit direction from the point towards p0.
+  TVec3<T> b; ///< Unit direction from the point towards p1.
+  TVec3<T> c; ///< Unit direction from the point towards p2.
   T solidAngle = 0; ///< Ω in steradians, [0, 2π]; 0 when the point lies in the triangle's plane or on a corner.
 };
 
@@ -218,7 +220,8 @@ std::optional<TriangleLightSample<T>> sampleTriangleArea(const TVec3<T>& ref, co
 
 /// A direction from `ref` towards triangle light (p0, p1, p2) as chapters 7 and 8 choose it: uniform in its solid
 /// angle where that is well conditioned (sampledBySolidAngle), uniform on its area otherwise. Nothing when the
-/// triangle is seen edge on from `ref`. @param u uniform in [0, 1)².
+/// triangle is seen edge on from `ref`.
+/// @param ref the shaded point. @param p0,p1,p2 the light's corners. @param u uniform in [0, 1)².
 template <class T>
 std::optional<TriangleLightSample<T>> sampleTriangleLight(const TVec3<T>& ref, const TVec3<T>& p0, const TVec3<T>& p1,
                                                           const TVec3<T>& p2, glm::vec<2, T> u)
