@@ -56,12 +56,13 @@ Bounds3 triangleBounds(const Vec3& p0, const Vec3& p1, const Vec3& p2)
 
 // ---- Building -------------------------------------------------------------------------------------------------
 
-// A primitive while the tree is built: its box, the centre of that box (what the splits sort by), its number
-// (spheres first, then triangles).
+// A primitive while the tree is built: its box and its number (spheres first, then triangles). The splits sort by
+// the centre of the box, computed when needed (kept, it cost 24 of 80 bytes a primitive at the build's peak).
 struct BuildItem {
   Bounds3 bounds;
-  Vec3 centroid;
   int index;
+
+  Vec3 centroid() const { return (bounds.lo + bounds.hi) / Real(2); }
 };
 
 // Where to split a node's items [begin, end): items [begin, mid) go to the first child, [mid, end) to the second.
@@ -106,7 +107,7 @@ public:
     Bounds3 bounds, centroids;
     for (std::size_t i = begin; i < end; ++i) {
       bounds = bounds.merged(items_[i].bounds);
-      centroids = centroids.merged(items_[i].centroid);
+      centroids = centroids.merged(items_[i].centroid());
     }
     for (int a = 0; a < 3; ++a) {
       nodes[nodeIndex].bounds[0][a] = roundDown(bounds.lo[a]);
@@ -167,8 +168,8 @@ private:
     const std::size_t mid = begin + (end - begin) / 2;
     std::nth_element(items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(mid),
                      items_.begin() + std::ptrdiff_t(end), [axis](const BuildItem& a, const BuildItem& b) {
-                       return a.centroid[axis] < b.centroid[axis] ||
-                              (a.centroid[axis] == b.centroid[axis] && a.index < b.index);
+                       const Real ca = a.centroid()[axis], cb = b.centroid()[axis];
+                       return ca < cb || (ca == cb && a.index < b.index);
                      });
     return Split{mid};
   }
@@ -181,7 +182,7 @@ private:
     const int axis = longestAxis(centroids);
     const Real middle = (centroids.lo[axis] + centroids.hi[axis]) / 2;
     const auto midIt = std::partition(items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(end),
-                                      [&](const BuildItem& item) { return item.centroid[axis] < middle; });
+                                      [&](const BuildItem& item) { return item.centroid()[axis] < middle; });
     const std::size_t mid = std::size_t(midIt - items_.begin());
     if (mid == begin || mid == end) // every centroid on one side (all equal): split by count instead
       return equalCounts(begin, end, axis);
@@ -205,26 +206,40 @@ private:
     Real bestCost = kInfinity;
     int bestAxis = -1, bestBin = -1;
     if (area > 0 && area < kInfinity) {
+      // Sort the centroids into bins on the three axes at once (one pass over the items, which for a million
+      // triangles do not fit in the cache): each bin's count and the box of its primitives.
+      bool splittable[3];
+      Real lo[3], extent[3];
+      std::array<std::array<std::size_t, kMaxBins>, 3> count{};
+      std::array<std::array<Bounds3, kMaxBins>, 3> box{};
       for (int axis = 0; axis < 3; ++axis) {
-        const Real lo = centroids.lo[axis], extent = centroids.hi[axis] - lo;
-        if (!(extent > 0 && extent < kInfinity))
-          continue; // every centroid in one plane across this axis: nothing to split
-        // Sort the centroids into bins: each bin's count and the box of its spheres.
-        std::array<std::size_t, kMaxBins> count{};
-        std::array<Bounds3, kMaxBins> box{};
-        for (std::size_t i = begin; i < end; ++i) {
-          const int b = binOf(items_[i].centroid[axis], lo, extent);
-          count[std::size_t(b)] += 1;
-          box[std::size_t(b)] = box[std::size_t(b)].merged(items_[i].bounds);
-        }
+        lo[axis] = centroids.lo[axis];
+        extent[axis] = centroids.hi[axis] - lo[axis];
+        // (Every centroid in one plane across an axis: nothing to split there.)
+        splittable[axis] = extent[axis] > 0 && extent[axis] < kInfinity;
+      }
+      for (std::size_t i = begin; i < end; ++i) {
+        const Vec3 c = items_[i].centroid();
+        for (int axis = 0; axis < 3; ++axis)
+          if (splittable[axis]) {
+            const auto b = std::size_t(binOf(c[axis], lo[axis], extent[axis]));
+            count[std::size_t(axis)][b] += 1;
+            box[std::size_t(axis)][b] = box[std::size_t(axis)][b].merged(items_[i].bounds);
+          }
+      }
+      for (int axis = 0; axis < 3; ++axis) {
+        if (!splittable[axis])
+          continue;
+        const auto& binCount = count[std::size_t(axis)];
+        const auto& binBox = box[std::size_t(axis)];
         // Sweep from the right to know, for each boundary, the area and count of everything to its right.
         std::array<Real, kMaxBins> rightArea{};
         std::array<std::size_t, kMaxBins> rightCount{};
         Bounds3 right;
         std::size_t nRight = 0;
         for (int b = bins - 1; b > 0; --b) {
-          right = right.merged(box[std::size_t(b)]);
-          nRight += count[std::size_t(b)];
+          right = right.merged(binBox[std::size_t(b)]);
+          nRight += binCount[std::size_t(b)];
           rightArea[std::size_t(b)] = right.surfaceArea();
           rightCount[std::size_t(b)] = nRight;
         }
@@ -232,8 +247,8 @@ private:
         Bounds3 left;
         std::size_t nLeft = 0;
         for (int b = 0; b + 1 < bins; ++b) {
-          left = left.merged(box[std::size_t(b)]);
-          nLeft += count[std::size_t(b)];
+          left = left.merged(binBox[std::size_t(b)]);
+          nLeft += binCount[std::size_t(b)];
           const std::size_t nR = rightCount[std::size_t(b + 1)];
           if (nLeft == 0 || nR == 0)
             continue;
@@ -256,7 +271,7 @@ private:
     const Real lo = centroids.lo[bestAxis], extent = centroids.hi[bestAxis] - lo;
     const auto midIt = std::partition(
         items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(end),
-        [&](const BuildItem& item) { return binOf(item.centroid[bestAxis], lo, extent) <= bestBin; });
+        [&](const BuildItem& item) { return binOf(item.centroid()[bestAxis], lo, extent) <= bestBin; });
     return Split{std::size_t(midIt - items_.begin())};
   }
   /// [sah]
@@ -419,31 +434,36 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   if (count == 0)
     return;
   std::vector<BuildItem> items(count);
-  for (std::size_t i = 0; i < spheres.size(); ++i) {
-    const Bounds3 b = sphereBounds(spheres[i]);
-    items[i] = BuildItem{b, (b.lo + b.hi) / Real(2), int(i)};
-  }
+  for (std::size_t i = 0; i < spheres.size(); ++i)
+    items[i] = BuildItem{sphereBounds(spheres[i]), int(i)};
   for (std::size_t j = 0; j < triangles.size(); ++j) {
     const Triangle& tri = triangles[j];
-    const Bounds3 b = triangleBounds(vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]);
-    items[spheres.size() + j] = BuildItem{b, (b.lo + b.hi) / Real(2), int(spheres.size() + j)};
+    items[spheres.size() + j] =
+        BuildItem{triangleBounds(vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]), int(spheres.size() + j)};
   }
   eightAtOnce_ = options.eightAtOnce && cpuHasAvx2();
-  Builder builder(std::move(items), int(spheres.size()), options);
-  builder.nodes.reserve(2 * count);
-  builder.build(0, count, 1);
-  nodes_ = std::move(builder.nodes);
-  nodes_.shrink_to_fit();
-  depth_ = builder.depth;
+  // The primitives' numbers in the order the build left them (leaf by leaf); the builder, and its items, go as soon
+  // as the nodes are made, before the primitives' own copies are (the build's memory peak for a big mesh).
+  std::vector<int> order(count);
+  {
+    Builder builder(std::move(items), int(spheres.size()), options);
+    // No reserve: a tree has about one node per primitive, but a guess high enough for every scene (two per
+    // primitive) would be 64 MB for a million triangles; growing by doubling never holds more than twice the
+    // final array. (Not shrunk to fit either: the copy would be the peak.)
+    builder.build(0, count, 1);
+    nodes_ = std::move(builder.nodes);
+    depth_ = builder.depth;
+    for (std::size_t k = 0; k < count; ++k)
+      order[k] = builder.items()[k].index;
+  }
 
   // The primitives in leaf order, each kind in its own list, so that a leaf's primitives lie side by side; a
   // leaf's offset becomes its first primitive's place in its kind's list.
   std::vector<std::uint32_t> placeInKind(count);
   spheres_.reserve(spheres.size());
   triangles_.reserve(triangles.size());
-  const std::vector<BuildItem>& order = builder.items();
   for (std::size_t k = 0; k < count; ++k) {
-    const int index = order[k].index;
+    const int index = order[k];
     if (std::size_t(index) < spheres.size()) {
       placeInKind[k] = std::uint32_t(spheres_.size());
       const Sphere& s = spheres[std::size_t(index)];
@@ -451,20 +471,26 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
     } else {
       placeInKind[k] = std::uint32_t(triangles_.size());
       const Triangle& tri = triangles[std::size_t(index) - spheres.size()];
-      triangles_.push_back(TrianglePrimitive{vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]], index, false});
+      triangles_.push_back(TrianglePrimitive{{tri.v[0], tri.v[1], tri.v[2]}, index, false});
     }
   }
   for (BvhNode& n : nodes_)
     if (n.count > 0) {
-      n.triangles = std::size_t(order[n.offset].index) >= spheres.size() ? 1 : 0;
+      n.triangles = std::size_t(order[n.offset]) >= spheres.size() ? 1 : 0;
       n.offset = placeInKind[n.offset];
     }
+  std::vector<int>().swap(order);
+  std::vector<std::uint32_t>().swap(placeInKind);
+  if (!triangles.empty())
+    vertices_.assign(vertices.begin(), vertices.end());
 
-  // The tree the queries walk: up to eight children to a node.
-  // No reserve: the count is not known before the collapse (about a sixth of the built nodes), and a generous guess
-  // would be the largest block at the loader's memory peak.
+  // The tree the queries walk: up to eight children to a node, counted first, so that the array is allocated once at
+  // its size (grown by doubling, it held up to twice that, and its last copy was the build's memory peak: 125 MB for
+  // a million triangles).
+  wideNodes_.reserve(wideNodeCount(0));
   collapse(0);
-  wideNodes_.shrink_to_fit();
+  if (!options.keepBinaryTree)
+    std::vector<BvhNode>().swap(nodes_);
 }
 
 /// [collapse]
@@ -475,31 +501,49 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
 // children and, while it has fewer than kWidth, opens the interior child with the largest box (the one a ray is
 // likeliest to enter, by the SAH's argument) into that child's two children. Returns the new node's index; its
 // interior children follow it.
+int Bvh::wideChildren(std::uint32_t node, std::uint32_t (&children)[BvhWideNode::kWidth]) const
+{
+  constexpr int kWidth = BvhWideNode::kWidth;
+  int n = 0;
+  if (nodes_[node].count > 0) {
+    children[n++] = node; // the whole tree is one leaf: a root with one child
+    return n;
+  }
+  children[n++] = node + 1;
+  children[n++] = nodes_[node].offset;
+  while (n < kWidth) {
+    int widest = -1;
+    Real widestArea = -1;
+    for (int k = 0; k < n; ++k)
+      if (nodes_[children[k]].count == 0 && nodeArea(nodes_[children[k]]) > widestArea) {
+        widest = k;
+        widestArea = nodeArea(nodes_[children[k]]);
+      }
+    if (widest < 0)
+      break; // every child a leaf
+    const std::uint32_t opened = children[widest];
+    children[widest] = opened + 1;
+    children[n++] = nodes_[opened].offset;
+  }
+  return n;
+}
+
+std::size_t Bvh::wideNodeCount(std::uint32_t node) const
+{
+  std::uint32_t children[BvhWideNode::kWidth];
+  const int n = wideChildren(node, children);
+  std::size_t count = 1;
+  for (int k = 0; k < n; ++k)
+    if (nodes_[children[k]].count == 0)
+      count += wideNodeCount(children[k]);
+  return count;
+}
+
 std::uint32_t Bvh::collapse(std::uint32_t node)
 {
   constexpr int kWidth = BvhWideNode::kWidth;
   std::uint32_t children[kWidth];
-  int n = 0;
-  if (nodes_[node].count > 0) {
-    children[n++] = node; // the whole tree is one leaf: a root with one child
-  } else {
-    children[n++] = node + 1;
-    children[n++] = nodes_[node].offset;
-    while (n < kWidth) {
-      int widest = -1;
-      Real widestArea = -1;
-      for (int k = 0; k < n; ++k)
-        if (nodes_[children[k]].count == 0 && nodeArea(nodes_[children[k]]) > widestArea) {
-          widest = k;
-          widestArea = nodeArea(nodes_[children[k]]);
-        }
-      if (widest < 0)
-        break; // every child a leaf
-      const std::uint32_t opened = children[widest];
-      children[widest] = opened + 1;
-      children[n++] = nodes_[opened].offset;
-    }
-  }
+  const int n = wideChildren(node, children);
 
   // Take the node's place before its children take theirs; fill it in once they have (the vector may move).
   const auto index = std::uint32_t(wideNodes_.size());
@@ -603,8 +647,8 @@ template <bool kAnyHit, bool kCountWork, class V> [[gnu::flatten]] Bvh::Traversa
         const TrianglePrimitive& p = triangles_[i];
         if constexpr (kCountWork)
           found.work.primitivesTested += 1;
-        const std::optional<TriangleHit<Real>> h =
-            intersectTriangle(ray.origin, ray.direction, p.p0, p.p1, p.p2, ray.tmin, ray.tmax);
+        const std::optional<TriangleHit<Real>> h = intersectTriangle(
+            ray.origin, ray.direction, vertices_[p.v[0]], vertices_[p.v[1]], vertices_[p.v[2]], ray.tmin, ray.tmax);
         if (h) {
           if constexpr (kAnyHit)
             return Traversal{h->t, p.index, found.work};

@@ -105,6 +105,9 @@ struct BvhBuildOptions {
   /// Test a node's eight boxes in one AVX2 instruction where the CPU has AVX2; false, or a CPU without it: four
   /// at a time (SSE). Either way the same hits and the same work, bit for bit; only the speed differs.
   bool eightAtOnce = true;
+  /// Keep the binary tree (nodes(), sahCost()) after the wide tree is made from it. Off, it is freed: the queries
+  /// never use it, and it is 32 bytes a node (about 42 MB for a million triangles).
+  bool keepBinaryTree = false;
 };
 
 /// The relative costs the SAH weighs (only their ratio matters): one box test, and one primitive test (a sphere
@@ -181,7 +184,8 @@ public:
 
   /// Primitives (spheres and triangles) the tree was built over (0 for an empty tree).
   std::size_t primitiveCount() const { return spheres_.size() + triangles_.size(); }
-  /// The tree as built (binary), root first (empty for an empty tree).
+  /// The tree as built (binary), root first; empty for an empty tree, or unless built with
+  /// BvhBuildOptions::keepBinaryTree.
   const std::vector<BvhNode>& nodes() const { return nodes_; }
   /// The tree the queries walk (up to BvhWideNode::kWidth children per node), root first, every node before
   /// its children (empty for an empty tree).
@@ -193,7 +197,8 @@ public:
 
   /// The expected cost of a ray by the surface area heuristic, summed over the whole tree:
   /// Σ over interior nodes of (A_node / A_root)·C_trav + Σ over leaves of (A_leaf / A_root)·N_leaf·C_isect.
-  /// Lower is better; compares trees built over the same primitives.
+  /// Lower is better; compares trees built over the same primitives. Needs the binary tree
+  /// (BvhBuildOptions::keepBinaryTree): 0 without it.
   Real sahCost(const BvhCosts& costs = {}) const;
 
   /// Deepest tree the builder makes (the wide tree is never deeper): it bounds the traversal's stack.
@@ -207,9 +212,11 @@ private:
     int index;
     bool lastInLeaf; // its leaf's primitives end here
   };
-  /// A triangle as the tree stores it: its vertices (copied, so a leaf's triangles lie side by side), its number.
+  /// A triangle as the tree stores it: its corners' indices into the tree's copy of the vertices (20 bytes, where
+  /// the corners themselves would be 80: for a million triangles 48 MB less, and a quarter of the memory traffic on
+  /// the way to a leaf), and its number.
   struct TrianglePrimitive {
-    Vec3 p0, p1, p2;
+    std::uint32_t v[3];
     int index;
     bool lastInLeaf;
   };
@@ -225,12 +232,16 @@ private:
   template <bool kAnyHit, bool kCountWork, class V> Traversal traverse(const Ray& ray) const;
   template <bool kAnyHit, bool kCountWork> Traversal traverseEight(const Ray& ray) const;
   template <bool kAnyHit, bool kCountWork> Traversal dispatch(const Ray& ray) const;
+  // The binary nodes a wide node made from binary interior `node` takes as its children (see collapse).
+  int wideChildren(std::uint32_t node, std::uint32_t (&children)[BvhWideNode::kWidth]) const;
+  std::size_t wideNodeCount(std::uint32_t node) const; // the wide nodes collapse(node) makes
   std::uint32_t collapse(std::uint32_t node);
 
   std::vector<BvhNode> nodes_;
   std::vector<BvhWideNode> wideNodes_;
   std::vector<SpherePrimitive> spheres_;
   std::vector<TrianglePrimitive> triangles_;
+  std::vector<Vec3> vertices_; // the triangles' corners (a copy)
   int depth_ = 0;
   bool eightAtOnce_ = false; // the boxes eight at a time (AVX2)
 };

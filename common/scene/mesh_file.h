@@ -48,11 +48,11 @@ inline constexpr std::size_t kMaxMeshFileBytes = std::size_t(1) << 30;
 /// The format of a file by its extension (.obj or .ply, in any case). @throws MeshError for any other extension.
 MeshFormat meshFormatOf(const std::string& path);
 
-/// Reads and checks a mesh file (a regular file of at most kMaxMeshFileBytes). Vertices that share a position
-/// (and a normal, when the file gives normals) are joined, so that a mesh read from a file whose faces each list
-/// their own corners is still connected. @throws MeshError naming the file and the fault: unreadable, empty, not
-/// OBJ or PLY, malformed (the library's message), an index out of range, a vertex that is not finite, points or
-/// lines (raylife renders triangles), or no triangle at all.
+/// Reads and checks a mesh file (a regular file of at most kMaxMeshFileBytes). An OBJ file's vertices that share a
+/// position (and a normal, when the file gives normals) are joined, since OBJ faces list their own corners, so that
+/// the mesh is connected; a PLY file's indexing is kept as it is. @throws MeshError naming the file and the fault:
+/// unreadable, empty, not OBJ or PLY, malformed (the library's message), an index out of range, a vertex that is
+/// not finite, points or lines (raylife renders triangles), or no triangle at all.
 MeshData readMeshFile(const std::string& path);
 
 /// readMeshFile on bytes already in memory, `name` used in messages only (the fuzz target's entry). Never reads

@@ -244,7 +244,10 @@ TEST_CASE("the build is deterministic")
 {
   Random random(3);
   const std::vector<Sphere> spheres = clusteredScene(random, 5000);
-  const Bvh a(spheres), b(spheres);
+  BvhBuildOptions keep;
+  keep.keepBinaryTree = true;
+  const Bvh a(spheres, keep), b(spheres, keep);
+  REQUIRE(!a.nodes().empty());
   REQUIRE(a.nodes().size() == b.nodes().size());
   CHECK(std::memcmp(a.nodes().data(), b.nodes().data(), a.nodes().size() * sizeof(BvhNode)) == 0);
   CHECK(a.depth() == b.depth());
@@ -255,7 +258,9 @@ TEST_CASE("the tree is well formed - every sphere in one leaf - every box holds 
 {
   Random random(5);
   const std::vector<Sphere> spheres = groundScene(random, 2000);
-  const Bvh bvh(spheres);
+  BvhBuildOptions keep;
+  keep.keepBinaryTree = true;
+  const Bvh bvh(spheres, keep);
   const std::vector<BvhNode>& nodes = bvh.nodes();
   REQUIRE(!nodes.empty());
   // Walk the tree from the root, checking each child lies inside its parent and each leaf's spheres are covered.
@@ -293,7 +298,9 @@ TEST_CASE("the wide tree holds every leaf of the built tree once - with its box 
 {
   Random random(5);
   for (const std::vector<Sphere>& spheres : {groundScene(random, 2000), uniformScene(random, 1), uniformScene(random, 3)}) {
-    const Bvh bvh(spheres);
+    BvhBuildOptions keep;
+    keep.keepBinaryTree = true;
+    const Bvh bvh(spheres, keep);
     const std::vector<BvhNode>& nodes = bvh.nodes();
     const std::vector<BvhWideNode>& wide = bvh.wideNodes();
     REQUIRE(!wide.empty());
@@ -348,8 +355,11 @@ TEST_CASE("the SAH builds a cheaper tree than a midpoint split on a clustered sc
 {
   Random random(9);
   const std::vector<Sphere> spheres = clusteredScene(random, 3000);
-  const Bvh sah(spheres, BvhBuildOptions{BvhSplit::Sah});
-  const Bvh midpoint(spheres, BvhBuildOptions{BvhSplit::Midpoint});
+  BvhBuildOptions sahOptions, midpointOptions;
+  sahOptions.keepBinaryTree = midpointOptions.keepBinaryTree = true;
+  midpointOptions.split = BvhSplit::Midpoint;
+  const Bvh sah(spheres, sahOptions);
+  const Bvh midpoint(spheres, midpointOptions);
   CHECK(sah.sahCost() < midpoint.sahCost());
   // The cost model predicts the work rays really do: count it over the same random rays.
   std::uint64_t workSah = 0, workMidpoint = 0;

@@ -20,6 +20,7 @@
 #endif
 
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -46,6 +47,19 @@ double peakMegabytes()
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return double(usage.ru_maxrss) / 1024.0;
+}
+
+// Resident memory of this process now, in MB (Linux's /proc/self/statm).
+double residentMegabytes()
+{
+  std::FILE* f = std::fopen("/proc/self/statm", "r");
+  long pages = 0, resident = 0;
+  if (f) {
+    if (std::fscanf(f, "%ld %ld", &pages, &resident) != 2)
+      resident = 0;
+    std::fclose(f);
+  }
+  return double(resident) * double(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
 
 // Rays per second of `query` over `rays`: as many passes as fill about `budget` seconds, best of three rounds.
@@ -123,15 +137,17 @@ int main(int argc, char** argv)
   triangles.reserve(mesh.triangles.size());
   for (const auto& t : mesh.triangles)
     triangles.push_back(Triangle{t, 0, 0});
-  std::printf("mesh: %s, %zu triangles, %zu vertices (peak memory after loading: %.0f MB, of which %.0f before)\n",
-              o.mesh.c_str(), triangles.size(), mesh.positions.size(), peakMegabytes(), baseline);
+  std::printf("mesh: %s, %zu triangles, %zu vertices (peak memory while loading: %.0f MB, of which %.0f before; "
+              "held after: %.0f MB)\n",
+              o.mesh.c_str(), triangles.size(), mesh.positions.size(), peakMegabytes(), baseline, residentMegabytes());
 
   // ---- raylife's build ----------------------------------------------------------------------------------------
   const auto buildStart = Clock::now();
   const Bvh bvh(std::span<const Sphere>(), mesh.positions, triangles);
   const double buildSeconds = seconds(buildStart);
-  std::printf("raylife BVH: built in %.2f s (one thread), %zu wide nodes, depth %d; peak memory %.0f MB\n",
-              buildSeconds, bvh.wideNodes().size(), bvh.depth(), peakMegabytes());
+  std::printf("raylife BVH: built in %.2f s (one thread), %zu wide nodes, depth %d; peak memory %.0f MB, held after "
+              "the build %.0f MB\n",
+              buildSeconds, bvh.wideNodes().size(), bvh.depth(), peakMegabytes(), residentMegabytes());
 
   // ---- The rays ---------------------------------------------------------------------------------------------
   Vec3 lo(kInfinity), hi(-kInfinity);
@@ -169,6 +185,16 @@ int main(int argc, char** argv)
               bounceRays.size(), bounceRays.size());
 
   // ---- raylife's queries --------------------------------------------------------------------------------------
+  for (const auto& [set, what] : {std::pair{&cameraRays, "camera"}, std::pair{&bounceRays, "bounce"}}) {
+    double boxes = 0, primitives = 0;
+    for (const Ray& r : *set) {
+      const BvhWork work = bvh.intersectWithWork(r).work;
+      boxes += work.nodesVisited;
+      primitives += work.primitivesTested;
+    }
+    std::printf("work per %s ray: %.1f boxes, %.1f triangles tested\n", what, boxes / double(set->size()),
+                primitives / double(set->size()));
+  }
   std::size_t sink = 0;
   auto ours = [&](const Ray& r) { sink += bvh.intersect(r).has_value(); };
   const double ourCamera = raysPerSecond(cameraRays, o.budget, ours);
