@@ -179,7 +179,9 @@ int main(int argc, char** argv)
       if (glm::dot(n, r.direction) > 0)
         n = -n;
       const Vec3 dir = Frame::fromNormal(n).toWorld(sampleCosineHemisphere(Vec2(uniform(), uniform())));
-      bounceRays.push_back(Ray{offsetRayOrigin(tp.point, tp.error, n, dir), dir, 0, kInfinity});
+      // tmin: Embree works in float, where the origin's rounding (about 1e-7 of the mesh's size) would let it find
+      // the triangle the ray leaves; both queries skip the first 1e-5 of the mesh's size.
+      bounceRays.push_back(Ray{offsetRayOrigin(tp.point, tp.error, n, dir), dir, Real(1e-5) * radius, kInfinity});
     }
   std::printf("rays: %zu camera rays (%zu hit the mesh), %zu diffuse bounce rays\n", cameraRays.size(),
               bounceRays.size(), bounceRays.size());
