@@ -75,10 +75,11 @@ std::uint64_t hashFile(const std::string& path)
 
 std::string describeRanges(const std::vector<SampleRange>& ranges)
 {
-  std::string out;
+  // (A stream, not string concatenation: GCC 12's LTO warns falsely about the latter's memcpy bound.)
+  std::ostringstream out;
   for (const SampleRange& r : ranges)
-    out += (out.empty() ? "" : ", ") + std::to_string(r.first) + ".." + std::to_string(r.end() - 1);
-  return out.empty() ? "none" : out;
+    out << (&r == ranges.data() ? "" : ", ") << r.first << ".." << (r.end() - 1);
+  return ranges.empty() ? "none" : out.str();
 }
 
 std::vector<unsigned char> encodeFilm(const PartialFilm& film)
