@@ -93,10 +93,10 @@ std::string sceneDirectory() { return RAYLIFE_SCENE_DIR; }
 
 namespace {
 
-// Ctrl-C (or SIGTERM) once: finish the pass in flight, write what there is, exit 130. Twice: stop at once and
+// Ctrl-C (or SIGTERM) once: stop at the next tile, write what there is, exit 130. Twice: stop at once and
 // write nothing. The handler touches only lock-free atomics and _exit, which are async-signal-safe.
 std::atomic<int> gSignals{0};            // SIGINT and SIGTERM received since the handlers were installed
-std::atomic<bool> gStopRequested{false}; // the render loop stops after the pass in flight
+std::atomic<bool> gStopRequested{false}; // the render loop stops at the next tile
 std::atomic<bool> gWriting{false};       // the images are being written: a second signal cancels the write
 std::atomic<bool> gCancelWrite{false};   // writeFilesAtomically removes its temporary files and gives up
 static_assert(std::atomic<int>::is_always_lock_free && std::atomic<bool>::is_always_lock_free,
@@ -268,7 +268,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     if (const int failed = ranks.checkpoint(0, filmHeader.sceneHash, hashBytes(settingsKey)))
       return failed;
 
-    // Render, with Ctrl-C and SIGTERM turned into "stop after this pass" (until the images are written).
+    // Render, with Ctrl-C and SIGTERM turned into "stop at the next tile" (until the images are written).
     const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
     const TraceFunction trace = makeTrace(scene);
@@ -284,6 +284,16 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
       result.seconds += beside->seconds;
       result.badSamples += beside->badSamples;
       result.interrupted = result.interrupted || beside->interrupted;
+      result.partialPass = std::max(result.partialPass, beside->partialPass);
+    }
+    // A pass cut short leaves some pixels with more samples than the others: fine for an image, but a partial film
+    // must hold whole passes (its header lists the sample indices every pixel holds).
+    const bool cut = result.interrupted && (result.partialPass > 0 || result.spp == 0);
+    if (cut && std::any_of(outputs.begin(), outputs.end(), [](const std::string& p) { return p.ends_with(".film"); })) {
+      if (ranks.root())
+        std::cerr << name << ": interrupted in the middle of a pass: a .film holds whole passes only; nothing was "
+                     "written\n";
+      return ranks.finish(130);
     }
 
     // Write every image, all or nothing (rank 0 only: it holds the whole film).
@@ -344,7 +354,10 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
         std::cerr << " (adaptive: at most " << result.spp << ", mean " << result.meanSpp << " spp)";
       if (result.badSamples)
         std::cerr << ", " << result.badSamples << " bad samples set to 0";
-      if (result.interrupted)
+      if (result.interrupted && cut)
+        std::cerr << " (interrupted after " << result.spp << " spp and " << int(result.partialPass * 100)
+                  << "% of the next pass)";
+      else if (result.interrupted)
         std::cerr << " (interrupted after " << result.spp << " spp)";
       std::cerr << " -> " << outputs[0];
       for (std::size_t i = 1; i < outputs.size(); ++i)
