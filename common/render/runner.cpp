@@ -238,9 +238,17 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     settings.threads = options.threads;
     settings.maxDepth = options.maxDepth ? *options.maxDepth : chapter.defaultMaxDepth;
     settings.pixelSampling = chapter.pixelSampling;
+    // A chapter that sends one ray through each pixel's centre would trace the very same ray for every sample:
+    // more samples (--spp N > 1, --time) spread over the pixel instead, which anti-aliases its edges.
+    const bool spread = chapter.pixelSampling == PixelSampling::Centre && settings.spp.value_or(2) > 1;
+    if (spread)
+      settings.pixelSampling = PixelSampling::Jittered;
     settings.progress = !options.quiet && ::isatty(STDERR_FILENO);
     settings.stop = &gStopRequested;
     settings.adaptive = applyPlanOptions(name, scene, chapter, options); // --verbose, --adaptive
+    if (spread && options.verbose)
+      std::cerr << name << ": plan: " << (settings.spp ? "--spp " + std::to_string(*settings.spp) : "--time")
+                << " -> samples spread over each pixel (anti-aliasing; 1 spp is a ray through its centre)\n";
     if (options.samples)
       settings.share.range = SampleRange{options.samples->first, options.samples->second};
     if (settings.adaptive && ranks.size() > 1)

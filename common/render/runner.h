@@ -18,7 +18,9 @@ struct ChapterInfo {
   std::string binary;         ///< e.g. "step04_shadows"; names the default output out/BINARY.png.
   std::string defaultScene;   ///< File name under scenes/, e.g. "spheres.json".
   unsigned uses = 0;          ///< Feature flags.
-  PixelSampling pixelSampling = PixelSampling::Centre; ///< Where samples fall in a pixel.
+  /// Where samples fall in a pixel. Centre (one ray through each pixel's centre) holds at one sample per pixel;
+  /// with more (--spp N > 1, --time) the runner spreads them (Jittered), so that they are not the same ray.
+  PixelSampling pixelSampling = PixelSampling::Centre;
   int defaultSpp = 1;         ///< Samples per pixel when neither --spp nor --time is given.
   int defaultMaxDepth = -1;   ///< --max-depth default; −1: unlimited.
   /// Optional: a second estimator whose image the runner puts to the right of the first, rendered with the same

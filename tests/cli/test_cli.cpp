@@ -535,3 +535,33 @@ TEST_CASE("a second Ctrl-C stops at once and writes nothing")
   // "At once": well before the pass in flight could have ended (a generous bound for a loaded machine).
   CHECK(std::chrono::steady_clock::now() - sent < std::chrono::seconds(5));
 }
+
+TEST_CASE("--spp and --time mean more samples in a chapter of one ray per pixel: spread over the pixel (issue 26)")
+{
+  // Chapter 4 sends its one ray through each pixel's centre; more samples of that same ray would change nothing.
+  const TempDir dir;
+  writeFile(dir.path() / "scene.json", kScene);
+  auto render = [&](std::vector<std::string> extra, const std::string& stem) {
+    std::vector<std::string> args{"scene.json", "-o", stem + ".pfm", "--stats", stem + ".json", "--quiet"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const Outcome o = run(kStep04, args, dir.path());
+    INFO(o.err);
+    REQUIRE(o.status == 0);
+    return readFile(dir.path() / (stem + ".pfm"));
+  };
+  const std::string byDefault = render({}, "default"), one = render({"--spp", "1"}, "one");
+  const std::string sixteen = render({"--spp", "16"}, "sixteen");
+  const std::string timed = render({"--time", "0.3"}, "timed");
+  CHECK(one == byDefault); // one sample is the centre ray, as the goldens have it
+  CHECK(sixteen != one);   // sixteen are spread: the sphere's edges are anti-aliased
+  CHECK(timed != one);     // and passes under --time are not the same pass again and again
+  const std::string stats = readFile(dir.path() / "timed.json");
+  CHECK(stats.find("\"spp\": 1,") == std::string::npos);
+  // The spread samples average to the centre ray's value away from edges: most pixels barely change.
+  const raylife::Image a = raylife::readPfm((dir.path() / "one.pfm").string());
+  const raylife::Image b = raylife::readPfm((dir.path() / "sixteen.pfm").string());
+  int close = 0;
+  for (std::size_t i = 0; i < a.pixels.size(); i += 3)
+    close += std::abs(a.pixels[i] - b.pixels[i]) < 0.02f;
+  CHECK(close > int(a.pixels.size() / 3 * 8 / 10));
+}
