@@ -91,6 +91,21 @@ std::optional<double> applyPlanOptions(const std::string& name, const Scene& sce
 
 std::string sceneDirectory() { return RAYLIFE_SCENE_DIR; }
 
+std::pair<std::int64_t, std::int64_t> imageSize(int sceneWidth, int sceneHeight, int width, int height)
+{
+  // One side given: the other keeps the scene's aspect ratio, rounded to the nearest pixel, at least one.
+  auto scaled = [](std::int64_t given, std::int64_t num, std::int64_t den) {
+    return std::max<std::int64_t>(1, (given * num * 2 + den) / (2 * den));
+  };
+  if (width && height)
+    return {width, height};
+  if (width)
+    return {width, scaled(width, sceneHeight, sceneWidth)};
+  if (height)
+    return {scaled(height, sceneWidth, sceneHeight), height};
+  return {sceneWidth, sceneHeight};
+}
+
 namespace {
 
 // Ctrl-C (or SIGTERM) once: stop at the next tile, write what there is, exit 130. Twice: stop at once and
@@ -201,16 +216,17 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
   try {
     // Load and check everything before any work: scene, size, outputs.
     const std::string scenePath = options.scenePath.empty() ? defaultScene : options.scenePath;
-    const Scene scene = loadScene(scenePath);
+    // A size on the command line replaces the scene's (even one too large to render).
+    const Scene scene = loadScene(scenePath, options.width || options.height);
     for (const std::string& w : scene.warnings)
       std::cerr << name << ": warning: " << w << "\n";
-    const int width = options.width ? options.width : scene.camera.width;
-    const int height = options.height ? options.height : scene.camera.height;
-    if (std::int64_t(width) * height > kMaxPixels) {
-      std::cerr << name << ": --width/--height: an image of " << width << "x" << height << " pixels is larger than the "
+    const auto [sizeX, sizeY] = imageSize(scene.camera.width, scene.camera.height, options.width, options.height);
+    if (sizeX > kMaxPixels || sizeY > kMaxPixels || sizeX * sizeY > kMaxPixels) {
+      std::cerr << name << ": --width/--height: an image of " << sizeX << "x" << sizeY << " pixels is larger than the "
                 << kMaxPixels << " pixels raylife allows\n";
       return ranks.finish(2);
     }
+    const int width = int(sizeX), height = int(sizeY);
     std::vector<std::string> outputs = options.outputs;
     if (outputs.empty()) {
       if (ranks.root())

@@ -37,6 +37,15 @@ std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGive
 /// The scenes/ folder of the source tree (compiled in), where default scenes live.
 std::string sceneDirectory();
 
+/// The size of the image to render, in pixels: --width and --height where given (0: not given); with only one of
+/// them, the other keeps the scene's aspect ratio (rounded, at least 1); with neither, the scene's size.
+/// @param sceneWidth The scene's width, ≥ 1.
+/// @param sceneHeight The scene's height, ≥ 1.
+/// @param width --width, or 0.
+/// @param height --height, or 0.
+/// @return {width, height}, each ≥ 1; their product may exceed kMaxPixels (the caller refuses it).
+std::pair<std::int64_t, std::int64_t> imageSize(int sceneWidth, int sceneHeight, int width, int height);
+
 /// Makes a chapter's trace function for a loaded scene. runChapter calls it once, after the scene is loaded and
 /// before the render, so that a chapter can build what depends only on the scene (chapter 7's light sampler) once,
 /// and capture it in the trace function it returns, without global state. The scene outlives the trace function.

@@ -544,7 +544,7 @@ private:
 
 using Path = Reader::Path;
 
-void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& cam)
+void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& cam, bool sizeGiven)
 {
   r.object(j, path);
   r.onlyKeys(j, path, {"eye", "focal", "up", "vfov", "width", "height"});
@@ -561,7 +561,7 @@ void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& ca
     cam.width = r.wholeNumber(j["width"], path / "width", 1, kMaxPixels);
   if (j.contains("height"))
     cam.height = r.wholeNumber(j["height"], path / "height", 1, kMaxPixels);
-  if (std::int64_t(cam.width) * cam.height > kMaxPixels)
+  if (std::int64_t(cam.width) * cam.height > kMaxPixels && !sizeGiven)
     r.fail(path / "width", "an image of " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
                                " pixels is larger than the " + std::to_string(kMaxPixels) + " pixels raylife allows");
   auto basis = makeCameraBasis(cam.eye, cam.focal, cam.up);
@@ -831,7 +831,7 @@ namespace {
 // parseScene without the accelerator. The callers build it once the JSON tree is gone (and loadScene once the text is
 // too): with 100,000 spheres the two take about 28 MB, more than the scene and its tree, and the tree's build has
 // its own scratch on top.
-Scene readScene(std::string_view text, const std::string& fileName)
+Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiven = false)
 {
   auto failAt = [&](std::size_t offset, const std::string& what) {
     throw SceneError(printable(fileName + ":" + lineColumn(text, offset) + ": " + what));
@@ -894,7 +894,7 @@ Scene readScene(std::string_view text, const std::string& fileName)
   r.object(root, top);
   r.onlyKeys(root, top, {"camera", "background", "ambient", "materials", "spheres", "meshes", "lights"});
 
-  readCamera(r, r.required(root, top, "camera"), top / "camera", scene.camera);
+  readCamera(r, r.required(root, top, "camera"), top / "camera", scene.camera, sizeGiven);
   if (root.contains("background"))
     scene.background = r.color(root["background"], top / "background", kInfinity, "background radiance");
   if (root.contains("ambient"))
@@ -1000,7 +1000,7 @@ Scene parseScene(std::string_view text, const std::string& fileName)
   return scene;
 }
 
-Scene loadScene(const std::string& path)
+Scene loadScene(const std::string& path, bool sizeGiven)
 {
   // Say plainly what is wrong with a path that is not a readable file, before JSON has a chance to.
   namespace fs = std::filesystem;
@@ -1022,7 +1022,7 @@ Scene loadScene(const std::string& path)
   }
   if (in.bad())
     throw SceneError(printable(path + ": cannot read the scene file: " + std::strerror(errno)));
-  Scene scene = readScene(text, path);
+  Scene scene = readScene(text, path, sizeGiven);
   std::string().swap(text); // the text's memory back before the tree's build needs its own
   scene.buildAccelerator();
   return scene;

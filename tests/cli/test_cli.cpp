@@ -565,3 +565,33 @@ TEST_CASE("--spp and --time mean more samples in a chapter of one ray per pixel:
     close += std::abs(a.pixels[i] - b.pixels[i]) < 0.02f;
   CHECK(close > int(a.pixels.size() / 3 * 8 / 10));
 }
+
+TEST_CASE("one of --width and --height keeps the scene's aspect ratio; either rescues a scene too large (issue 26)")
+{
+  const TempDir dir;
+  writeFile(dir.path() / "scene.json", kScene); // 64x48
+  auto size = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{"scene.json", "-o", "out.pfm", "--quiet"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const Outcome o = run(kStep04, args, dir.path());
+    INFO(o.err);
+    REQUIRE(o.status == 0);
+    const raylife::Image image = raylife::readPfm((dir.path() / "out.pfm").string());
+    return std::pair(image.width, image.height);
+  };
+  CHECK(size({"--width", "640"}) == std::pair(640, 480));
+  CHECK(size({"--height", "30"}) == std::pair(40, 30));
+  CHECK(size({"--width", "7"}) == std::pair(7, 5)); // 5.25 rounds to 5
+  CHECK(size({"--width", "1"}) == std::pair(1, 1)); // never 0
+  CHECK(size({"--width", "100", "--height", "10"}) == std::pair(100, 10));
+  // A scene whose own size is beyond the limit renders at the size the command line gives it.
+  writeFile(dir.path() / "scene.json", withFault(R"("width": 64, "height": 48)", R"("width": 100000, "height": 100000)"));
+  CHECK(size({"--width", "32"}) == std::pair(32, 32));
+  CHECK(size({"--width", "20", "--height", "10"}) == std::pair(20, 10));
+  // The aspect ratio may make the other side too large: refused, as the command line's own.
+  writeFile(dir.path() / "scene.json", withFault(R"("width": 64, "height": 48)", R"("width": 1, "height": 67108864)"));
+  const Outcome o = run(kStep04, {"scene.json", "--width", "2", "-o", "out.png"}, dir.path());
+  CHECK(o.status == 2);
+  CHECK(o.err == "step04_shadows: --width/--height: an image of 2x134217728 pixels is larger than the 67108864 "
+                 "pixels raylife allows\n");
+}
