@@ -197,19 +197,25 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
 {
+  return runChapter(argc, argv, chapter,
+                    OptionsTraceFactory([&makeTrace](const Scene& scene, const ChapterOptions&) { return makeTrace(scene); }));
+}
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace)
+{
   const std::string name = chapter.binary;
   // One process, or the ranks of an MPI job: every rank goes through the same steps, only rank 0 speaks and writes.
   Ranks ranks(argc, argv, &gSignals);
   RenderOptions options;
   try {
-    options = parseCommandLine(argc, argv);
+    options = parseCommandLine(argc, argv, chapter.options);
   } catch (const UsageError& e) {
     std::cerr << name << ": " << e.what() << "\n" << "usage: " << name << " [SCENE.json] [options]; see --help\n";
     return ranks.finish(2);
   }
   const std::string defaultScene = sceneDirectory() + "/" + chapter.defaultScene;
   if (options.help) {
-    std::cout << usageText(name, defaultScene);
+    std::cout << usageText({name, defaultScene, chapter.defaultSpp, chapter.adaptiveSampling, chapter.options});
     return ranks.finish(0);
   }
 
@@ -295,7 +301,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     // Render, with Ctrl-C and SIGTERM turned into "stop at the next tile" (until the images are written).
     const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
-    const TraceFunction trace = makeTrace(scene);
+    const TraceFunction trace = makeTrace(scene, options.chapter);
     RenderResult result = ranks.render(scene, camera, settings, trace);
     std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
     if (chapter.besideTrace) {
@@ -313,7 +319,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     // A pass cut short leaves some pixels with more samples than the others: fine for an image, but a partial film
     // must hold whole passes (its header lists the sample indices every pixel holds).
     const bool cut = result.interrupted && (result.partialPass > 0 || result.spp == 0);
-    if (cut && std::any_of(outputs.begin(), outputs.end(), [](const std::string& p) { return p.ends_with(".film"); })) {
+    if (cut && std::any_of(outputs.begin(), outputs.end(), [](const std::string& p) { return fileExtension(p) == ".film"; })) {
       if (ranks.root())
         std::cerr << name << ": interrupted in the middle of a pass: a .film holds whole passes only; nothing was "
                      "written\n";
@@ -327,7 +333,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     const Film film = beside ? sideBySide(result.film, beside->film) : std::move(result.film);
     const Image mean = film.mean();
     for (const std::string& path : outputs) {
-      if (path.ends_with(".film")) {
+      if (fileExtension(path) == ".film") {
         filmHeader.samples = result.samples;
         filmHeader.rays = result.rays;
         filmHeader.badSamples = result.badSamples;

@@ -10,6 +10,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace raylife {
 
@@ -29,6 +30,9 @@ struct ChapterInfo {
   TraceFunction besideTrace = {};
   /// True for the Monte Carlo chapters (6 to 8), which honour --adaptive; the others say they ignore it.
   bool adaptiveSampling = false;
+  /// The chapter's own options beside the shared ones (options.h): the runner parses and checks them, lists them
+  /// in --help, and hands their values to an OptionsTraceFactory.
+  std::vector<ChapterOption> options = {};
 };
 
 /// What in `scene` a chapter that reads only `uses` ignores, as one phrase ("2 point lights, ambient"), or "".
@@ -50,6 +54,8 @@ std::pair<std::int64_t, std::int64_t> imageSize(int sceneWidth, int sceneHeight,
 /// before the render, so that a chapter can build what depends only on the scene (chapter 7's light sampler) once,
 /// and capture it in the trace function it returns, without global state. The scene outlives the trace function.
 using TraceFactory = std::function<TraceFunction(const Scene& scene)>;
+/// The same for a chapter with options of its own (ChapterInfo::options): it also receives their values.
+using OptionsTraceFactory = std::function<TraceFunction(const Scene& scene, const ChapterOptions& options)>;
 
 /// A chapter's whole main(): parses the command line, loads the scene, renders with `trace`, writes the images
 /// (all or nothing) and prints the summary line. Returns the exit status: 0 done, 1 bad input or failed write,
@@ -64,5 +70,7 @@ std::optional<double> applyPlanOptions(const std::string& name, const Scene& sce
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace);
 /// The same, for a chapter whose trace function is made per scene by `makeTrace` (called once, see TraceFactory).
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace);
+/// The same, for a chapter whose trace function depends on its own options' values (see OptionsTraceFactory).
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace);
 
 } // namespace raylife
