@@ -261,8 +261,9 @@ RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSetti
              MPI_COMM_WORLD);
 
   // The totals, on every rank (chapter 9's second image takes the samples the first one got).
-  std::uint64_t totals[4] = {mine.rays, mine.badSamples, std::uint64_t(mine.spp), mine.interrupted ? 1u : 0u};
-  MPI_Allreduce(MPI_IN_PLACE, totals, 4, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  std::uint64_t totals[5] = {mine.rays, mine.badSamples, std::uint64_t(mine.spp), mine.interrupted ? 1u : 0u,
+                             mine.cameraRays};
+  MPI_Allreduce(MPI_IN_PLACE, totals, 5, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
   double seconds = mine.seconds;
   MPI_Allreduce(MPI_IN_PLACE, &seconds, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
 
@@ -287,6 +288,7 @@ RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSetti
   result.spp = int(totals[2]);
   result.meanSpp = double(result.spp);
   result.interrupted = totals[3] > 0;
+  result.cameraRays = totals[4];
   result.seconds = seconds;
   if (root()) {
     std::vector<SampleRange> sorted;

@@ -242,6 +242,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
     result.spp = done;
   }
   result.meanSpp = double(samplesTaken) / double(active.size());
+  result.cameraRays = samplesTaken;
   result.samples = share.ranges(done);
   result.seconds = elapsed();
   if (settings.progress) {

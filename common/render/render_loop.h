@@ -91,6 +91,7 @@ struct RenderResult {
   int spp = 0;                  ///< Samples every pixel received.
   double seconds = 0;           ///< Wall-clock time of the render loop.
   std::uint64_t rays = 0;       ///< Rays traced (Scene::intersect and Scene::occluded calls).
+  std::uint64_t cameraRays = 0; ///< Camera rays made: one per pixel sample taken (traced or not).
   std::uint64_t badSamples = 0; ///< Samples that were NaN, infinite or negative: replaced by 0 and counted.
   bool interrupted = false;     ///< Stopped early through RenderSettings::stop.
   /// Stopped in the middle of a batch of samples: the share of its tiles that took it, in [0, 1) (their pixels

@@ -311,6 +311,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
       same.seconds.reset();
       beside = ranks.render(scene, camera, same, chapter.besideTrace);
       result.rays += beside->rays;
+      result.cameraRays += beside->cameraRays;
       result.seconds += beside->seconds;
       result.badSamples += beside->badSamples;
       result.interrupted = result.interrupted || beside->interrupted;
@@ -353,7 +354,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
            << (settings.threads > 0 ? settings.threads : omp_get_max_threads())
            << ", \"interrupted\": " << (result.interrupted ? "true" : "false")
            << ", \"mean_spp\": " << result.meanSpp << ", \"adaptive\": " << (settings.adaptive ? "true" : "false")
-           << ", \"ranks\": " << ranks.size()
+           << ", \"ranks\": " << ranks.size() << ", \"camera_rays\": " << result.cameraRays
            << "}\n";
       const std::string text = json.str();
       files.emplace_back(options.statsPath, std::vector<unsigned char>(text.begin(), text.end()));
@@ -369,9 +370,13 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
 
     if (!options.quiet) {
       char line[256];
-      const double mrays = result.seconds > 0 ? double(result.rays) / result.seconds / 1e6 : 0.0;
-      std::snprintf(line, sizeof line, "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s", name.c_str(), mean.width,
-                    height, result.spp, result.seconds, formatCount(result.rays).c_str(), mrays);
+      // A chapter that traces no ray (chapter 1 only makes them) counts the camera rays it made.
+      const bool traced = result.rays > 0;
+      const std::uint64_t rays = traced ? result.rays : result.cameraRays;
+      const double mrays = result.seconds > 0 ? double(rays) / result.seconds / 1e6 : 0.0;
+      std::snprintf(line, sizeof line, traced ? "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s"
+                                              : "%s: %dx%d, %d spp, %.2f s, %s camera rays made (none traced), %.2f M/s",
+                    name.c_str(), mean.width, height, result.spp, result.seconds, formatCount(rays).c_str(), mrays);
       std::cerr << line;
       if (options.samples)
         std::cerr << " (samples " << describeRanges(result.samples) << " of " << *settings.spp << ")";

@@ -481,11 +481,16 @@ public:
   int wholeNumber(const Json& j, const Path& path, std::int64_t lo, std::int64_t hi) const
   {
     if (j.is_number_float()) {
-      // A whole number beyond 64 bits arrives as a double: say it is out of range rather than not whole.
+      // A whole number beyond 64 bits arrives as a double: say it is out of range rather than not whole. One in
+      // range written with a point or an exponent (320.0, 1e3) is asked for without.
       const double v = j.get<double>();
-      if (std::isfinite(v) && v == std::floor(v))
-        fail(path, v > 0 ? "must be at most " + std::to_string(hi) + ", got " + j.dump()
-                         : "must be at least " + std::to_string(lo) + ", got " + j.dump());
+      if (std::isfinite(v) && v == std::floor(v)) {
+        if (v > double(hi))
+          fail(path, "must be at most " + std::to_string(hi) + ", got " + j.dump());
+        if (v < double(lo))
+          fail(path, "must be at least " + std::to_string(lo) + ", got " + j.dump());
+        fail(path, "expected a whole number written without a decimal point or exponent, got " + j.dump());
+      }
     }
     if (!j.is_number_integer())
       fail(path, "expected a whole number, got " + describe(j));

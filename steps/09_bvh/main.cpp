@@ -64,7 +64,7 @@ int main(int argc, char** argv)
 {
   const ChapterInfo chapter{.binary = "step09_bvh",
                             .defaultScene = "random_spheres.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground,
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground | kShadowRays,
                             .besideTrace = [](const Scene& s, const Ray& r, Sampler& sampler, int) {
                               return work(s, r, sampler);
                             }};

@@ -179,6 +179,11 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
        "scene.json:2:105: /camera/height: must be at least 1, got -48"},
       {"a fractional image width", withFault(R"("width": 64)", R"("width": 64.5)"),
        "scene.json:2:91: /camera/width: expected a whole number, got number 64.5"},
+      {"a whole image width written with a point (issue 26)", withFault(R"("width": 64)", R"("width": 64.0)"),
+       "scene.json:2:91: /camera/width: expected a whole number written without a decimal point or exponent, got "
+       "64.0"},
+      {"a width written with an exponent, too large", withFault(R"("width": 64)", R"("width": 1e9)"),
+       "scene.json:2:91: /camera/width: must be at most 67108864, got 1000000000.0"},
       {"an image too large to allocate", withFault(R"("width": 64, "height": 48)", R"("width": 100000, "height": 100000)"),
        "scene.json:2:91: /camera/width: an image of 100000x100000 pixels is larger than the 67108864 pixels raylife "
        "allows"},
@@ -653,4 +658,22 @@ TEST_CASE("an output's extension may be in upper case (issue 26)")
   CHECK(entries(dir.path()) == std::vector<std::string>{"scene.json", "v.PFM", "x.PNG", "x.Pfm"});
   CHECK(raylife::readImage((dir.path() / "x.PNG").string()).width == 64);
   CHECK(raylife::readImage((dir.path() / "x.Pfm").string()).width == 64);
+}
+
+TEST_CASE("chapter 1 counts the camera rays it makes, and chapter 4's plan speaks of shadow rays (issue 26)")
+{
+  const TempDir dir;
+  writeFile(dir.path() / "scene.json", kScene); // 64x48
+  const Outcome one = run(STEP01, {"scene.json", "-o", "out.png", "--stats", "s.json"}, dir.path());
+  INFO(one.err);
+  REQUIRE(one.status == 0);
+  CHECK(std::regex_search(one.err, std::regex(R"(step01_camera: 64x48, 1 spp, [0-9.]+ s, 3072 camera rays made )"
+                                              R"(\(none traced\), [0-9.]+ M/s -> out\.png\n$)")));
+  CHECK(readFile(dir.path() / "s.json").find("\"rays\": 0, ") != std::string::npos);
+  CHECK(readFile(dir.path() / "s.json").find("\"camera_rays\": 3072}") != std::string::npos);
+  const Outcome four = run(kStep04, {"scene.json", "-o", "out.png", "--verbose", "--quiet"}, dir.path());
+  CHECK(four.status == 0);
+  CHECK(four.err == "step04_shadows: plan: 2 spheres -> flat list: each ray tests every one (more than 9 go in a BVH, "
+                    "chapter 9)\n"
+                    "step04_shadows: plan: 1 point light -> a shadow ray to each from every hit that faces it\n");
 }
