@@ -332,7 +332,9 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
       return ranks.finish(result.interrupted ? 130 : 0);
     std::vector<std::pair<std::string, std::vector<unsigned char>>> files;
     const Film film = beside ? sideBySide(result.film, beside->film) : std::move(result.film);
-    const Image mean = film.mean();
+    Image mean = film.mean();
+    if (chapter.annotate)
+      chapter.annotate(mean);
     for (const std::string& path : outputs) {
       if (fileExtension(path) == ".film") {
         filmHeader.samples = result.samples;

@@ -28,6 +28,10 @@ struct ChapterInfo {
   /// camera, seed and samples per pixel, so the output is twice as wide (chapter 9 shows the work each pixel cost
   /// beside the rendered image). Empty: one image.
   TraceFunction besideTrace = {};
+  /// Optional: draws on the rendered image before it is written as PNG, PFM or EXR (not on a .film or the
+  /// variance), e.g. chapter 9's colour scale. Must depend only on the image's size, so that images stay
+  /// reproducible. Empty: nothing drawn.
+  std::function<void(Image& image)> annotate = {};
   /// True for the Monte Carlo chapters (6 to 8), which honour --adaptive; the others say they ignore it.
   bool adaptiveSampling = false;
   /// The chapter's own options beside the shared ones (options.h): the runner parses and checks them, lists them

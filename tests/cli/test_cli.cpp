@@ -7,6 +7,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <csignal>
@@ -676,4 +677,32 @@ TEST_CASE("chapter 1 counts the camera rays it makes, and chapter 4's plan speak
   CHECK(four.err == "step04_shadows: plan: 2 spheres -> flat list: each ray tests every one (more than 9 go in a BVH, "
                     "chapter 9)\n"
                     "step04_shadows: plan: 1 point light -> a shadow ray to each from every hit that faces it\n");
+}
+
+TEST_CASE("chapter 9's default scene is one it renders whole, and its heat map has a colour scale (issue 26)")
+{
+  const TempDir dir;
+  const Outcome o = run(STEP09, {"--width", "160", "-o", "out.pfm"}, dir.path());
+  INFO(o.err);
+  REQUIRE(o.status == 0);
+  // One line: the summary, with nothing ignored.
+  CHECK(std::count(o.err.begin(), o.err.end(), '\n') == 1);
+  CHECK(o.err.find("ignores") == std::string::npos);
+  const raylife::Image image = raylife::readPfm((dir.path() / "out.pfm").string());
+  REQUIRE(image.width == 320);
+  REQUIRE(image.height == 90);
+  // The scale: under the heat map (the right half), a bar whose colours grow brighter to the right, white digits
+  // under it on black; the left half's bottom rows are the render's.
+  auto luminance = [&](int x, int y) { return image.at(x, y, 0) + image.at(x, y, 1) + image.at(x, y, 2); };
+  const int barRow = 90 - 14 + 2 + 1; // the strip (14 rows) from the bottom, its margin, a row into the bar
+  CHECK(luminance(160 + 11, barRow) < 0.01f); // the bar runs from x = 170 to 309: black at 1 test
+  CHECK(luminance(160 + 11, barRow) < luminance(240, barRow));
+  CHECK(luminance(240, barRow) < luminance(308, barRow)); // pale yellow at 4096
+  CHECK(luminance(308, barRow) > 2.0f);
+  int white = 0;
+  for (int y = barRow + 4; y < 90; ++y)
+    for (int x = 160; x < 320; ++x)
+      white += luminance(x, y) == 3.0f;
+  CHECK(white > 40); // "1 8 64 512 4096": 14 digits of 7 to 13 pixels
+  CHECK(luminance(40, 88) > 0.05f); // the render, not the strip
 }
