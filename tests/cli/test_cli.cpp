@@ -706,3 +706,41 @@ TEST_CASE("chapter 9's default scene is one it renders whole, and its heat map h
   CHECK(white > 40); // "1 8 64 512 4096": 14 digits of 7 to 13 pixels
   CHECK(luminance(40, 88) > 0.05f); // the render, not the strip
 }
+
+TEST_CASE("raylife_image convert makes a PFM into a PNG to look at, with an exposure (issue 26)")
+{
+  const TempDir dir;
+  writeFile(dir.path() / "scene.json", kScene);
+  REQUIRE(run(kStep04, {"scene.json", "-o", "out.pfm", "-o", "out.png", "--quiet"}, dir.path()).status == 0);
+  {
+    const Outcome o = run(RAYLIFE_IMAGE, {"convert", "out.pfm", "same.png"}, dir.path());
+    INFO(o.err);
+    REQUIRE(o.status == 0);
+    CHECK(o.err.empty());
+  }
+  // Exposure 0: the chapter's own PNG, byte for byte (the same clamping and sRGB encoding).
+  CHECK(readFile(dir.path() / "same.png") == readFile(dir.path() / "out.png"));
+  // One stop darker: every linear value halved (as far as 8 bits keep it).
+  REQUIRE(run(RAYLIFE_IMAGE, {"convert", "out.pfm", "dark.png", "--exposure=-1"}, dir.path()).status == 0);
+  REQUIRE(run(RAYLIFE_IMAGE, {"convert", "out.pfm", "dark.pfm", "--exposure", "-1"}, dir.path()).status == 0);
+  const raylife::Image pfm = raylife::readPfm((dir.path() / "out.pfm").string());
+  const raylife::Image dark = raylife::readPfm((dir.path() / "dark.pfm").string());
+  const raylife::Image darkPng = raylife::readPng((dir.path() / "dark.png").string());
+  REQUIRE(dark.pixels.size() == pfm.pixels.size());
+  double worst = 0;
+  for (std::size_t i = 0; i < pfm.pixels.size(); ++i) {
+    CHECK(dark.pixels[i] == pfm.pixels[i] / 2);
+    worst = std::max(worst, double(std::abs(darkPng.pixels[i] - std::min(1.0f, pfm.pixels[i] / 2))));
+  }
+  CHECK(worst < 0.01);
+  // Faults: usage (2), an unreadable input (1), nothing written.
+  const std::vector<std::string> before = entries(dir.path());
+  CHECK(run(RAYLIFE_IMAGE, {"convert", "out.pfm"}, dir.path()).status == 2);
+  CHECK(run(RAYLIFE_IMAGE, {"convert", "out.pfm", "x.jpg"}, dir.path()).status == 2);
+  CHECK(run(RAYLIFE_IMAGE, {"convert", "out.pfm", "x.png", "--exposure", "lots"}, dir.path()).status == 2);
+  CHECK(run(RAYLIFE_IMAGE, {"show", "out.pfm"}, dir.path()).status == 2);
+  const Outcome missing = run(RAYLIFE_IMAGE, {"convert", "missing.pfm", "x.png"}, dir.path());
+  CHECK(missing.status == 1);
+  CHECK(missing.err.rfind("raylife_image: missing.pfm", 0) == 0);
+  CHECK(entries(dir.path()) == before);
+}
