@@ -6,7 +6,9 @@
 # It checks what the table must agree with, and fails naming the fault: every steps/NN_name/ folder has a row and
 # every row a folder and a page, the rows are numbered 1, 2, 3, ... in order, and each page's heading is
 # "# Chapter N — TITLE {#stepNN_name}" with the table's title.
-#   cmake -DSOURCE=<docs dir> -DSTEPS=<steps dir> -DOUT=<dir for the pages> -P make_pages.cmake
+#  - the scene-format page's table of what each chapter reads (@RAYLIFE_CHAPTER_READS@), from each chapter's
+#    `--help` ("reads from a scene: ..."), when BIN_DIR holds the chapters' programs.
+#   cmake -DSOURCE=<docs dir> -DSTEPS=<steps dir> -DOUT=<dir for the pages> [-DBIN_DIR=<dir>] -P make_pages.cmake
 cmake_policy(VERSION 3.20)
 foreach(var SOURCE STEPS OUT)
   if(NOT DEFINED ${var})
@@ -98,4 +100,21 @@ if(at EQUAL -1)
 endif()
 string(REPLACE "@RAYLIFE_CHAPTERS@" "${table}" index "${index}")
 file(WRITE ${OUT}/index.md "${index}")
+
+# The scene format's table of what each chapter reads.
+set(reads "| Chapter | Reads from a scene |\n| --- | --- |\n")
+foreach(i RANGE 1 ${count})
+  if(NOT DEFINED BIN_DIR)
+    set(reads "(The table of what each chapter reads is made by the docs build, from the chapters' programs.)")
+    break()
+  endif()
+  execute_process(COMMAND ${BIN_DIR}/${binary_${i}} --help OUTPUT_VARIABLE help RESULT_VARIABLE status)
+  if(NOT status EQUAL 0 OR NOT help MATCHES "\nreads from a scene: ([^\n]+)\n")
+    message(FATAL_ERROR "${BIN_DIR}/${binary_${i}} --help (status ${status}) does not say what it reads from a scene")
+  endif()
+  string(APPEND reads "| ${i}. @ref ${binary_${i}} \"${title_${i}}\" | ${CMAKE_MATCH_1} |\n")
+endforeach()
+file(READ ${SOURCE}/scene-format.md format)
+string(REPLACE "@RAYLIFE_CHAPTER_READS@" "${reads}" format "${format}")
+file(WRITE ${OUT}/scene-format.md "${format}")
 message(STATUS "raylife docs: ${count} chapters listed and linked in order")

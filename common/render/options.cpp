@@ -394,6 +394,8 @@ std::string usageText(const UsageInfo& info)
       text += left + o.help + (o.kind == OptionKind::Flag ? "" : " (default: " + o.defaultValue + ")") + "\n";
     }
   }
+  if (!info.reads.empty())
+    text += "\nreads from a scene: " + info.reads + "\n";
   text += "\n"
           "Options with a value may be written --name value or --name=value.\n"
           "exit status: 0 done, 1 bad input or a failed write, 2 bad command line, 130 interrupted\n";

@@ -109,6 +109,8 @@ struct UsageInfo {
   std::string defaultScene;           ///< The default scene's path.
   int defaultSpp = 1;                 ///< Samples per pixel without --spp or --time.
   bool adaptive = false;              ///< Whether the chapter honours --adaptive.
+  /// What the chapter reads of a scene, as a phrase ("the camera, spheres and meshes, ..."); "" says nothing.
+  std::string reads = {};
   std::vector<ChapterOption> options; ///< The chapter's own options.
 };
 

@@ -25,6 +25,24 @@
 
 namespace raylife {
 
+std::string describeReads(unsigned uses)
+{
+  std::vector<std::string> parts{"the camera"};
+  const std::pair<unsigned, const char*> features[] = {
+      {kUsesSpheres, "spheres and meshes"}, {kUsesColors, "material colours"}, {kUsesPointLights, "point lights"},
+      {kUsesAmbient, "the ambient term"},   {kUsesBackground, "the background"}, {kUsesEmission, "emission"},
+      {kUsesMirror, "mirrors"},             {kUsesGlass, "glass"},              {kUsesGlossy, "glossy materials"}};
+  for (const auto& [flag, what] : features)
+    if (uses & flag)
+      parts.push_back(what);
+  std::string out;
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    out += (i == 0 ? "" : (i + 1 == parts.size() ? " and " : ", ")) + parts[i];
+  if ((uses & kUsesSpheres) && (uses & kUsesColors) && !((uses & kUsesMirror) && (uses & kUsesGlass) && (uses & kUsesGlossy)))
+    out += " (the other kinds of material are shaded as diffuse)";
+  return out;
+}
+
 std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven)
 {
   std::vector<std::string> parts;
@@ -215,7 +233,8 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
   }
   const std::string defaultScene = sceneDirectory() + "/" + chapter.defaultScene;
   if (options.help) {
-    std::cout << usageText({name, defaultScene, chapter.defaultSpp, chapter.adaptiveSampling, chapter.options});
+    std::cout << usageText({name, defaultScene, chapter.defaultSpp, chapter.adaptiveSampling,
+                            describeReads(chapter.uses), chapter.options});
     return ranks.finish(0);
   }
 

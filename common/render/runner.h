@@ -39,6 +39,10 @@ struct ChapterInfo {
   std::vector<ChapterOption> options = {};
 };
 
+/// What of a scene a chapter that reads `uses` (Feature flags) takes into account, as one phrase ("the camera,
+/// spheres and meshes, material colours, ..."): for --help and the docs' table of what each chapter reads.
+std::string describeReads(unsigned uses);
+
 /// What in `scene` a chapter that reads only `uses` ignores, as one phrase ("2 point lights, ambient"), or "".
 std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven);
 

@@ -2,15 +2,17 @@
 # checks them against the chapters that exist, the folders steps/NN_name/, in their order: the index names every
 # chapter, in order, and each chapter page links to the one before it and the one after it (the first has no
 # Previous, the last no Next), at the top and at the bottom.
-#   cmake -DSOURCE=<docs dir> -DSTEPS=<steps dir> -DOUT=<dir> -P check_pages.cmake
+# Every chapter page has the same sections, in order, and no bold text around a formula (which Doxygen shows with
+# its asterisks), and the scene format's table says what every chapter reads.
+#   cmake -DSOURCE=<docs dir> -DSTEPS=<steps dir> -DOUT=<dir> -DBIN_DIR=<the chapters' programs> -P check_pages.cmake
 cmake_policy(VERSION 3.20)
-foreach(var SOURCE STEPS OUT)
+foreach(var SOURCE STEPS OUT BIN_DIR)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "check_pages.cmake: -D${var}=... is required")
   endif()
 endforeach()
 file(REMOVE_RECURSE ${OUT})
-execute_process(COMMAND ${CMAKE_COMMAND} -DSOURCE=${SOURCE} -DSTEPS=${STEPS} -DOUT=${OUT}
+execute_process(COMMAND ${CMAKE_COMMAND} -DSOURCE=${SOURCE} -DSTEPS=${STEPS} -DOUT=${OUT} -DBIN_DIR=${BIN_DIR}
                         -P ${SOURCE}/make_pages.cmake RESULT_VARIABLE status)
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "make_pages.cmake failed (above)")
@@ -33,6 +35,24 @@ foreach(page IN LISTS chapters)
   endif()
   set(last ${at})
   file(READ ${OUT}/${page}.md text)
+  set(from 0)
+  foreach(section "The idea" "The mathematics" "The code" "The image" "What the tests check" "Try this")
+    string(FIND "${text}" "\n## ${section}\n" at)
+    if(at EQUAL -1 OR at LESS from)
+      message(FATAL_ERROR "docs/${page}.md: the section '## ${section}' is missing or out of order; every chapter "
+                          "page has The idea, The mathematics, The code, The image, What the tests check, Try this")
+    endif()
+    set(from ${at})
+  endforeach()
+  if(text MATCHES "\\*\\*[^*\n]*\\\\f\\$[^*\n]*\\*\\*")
+    message(FATAL_ERROR "docs/${page}.md: bold text around a formula ('${CMAKE_MATCH_0}'): Doxygen prints the "
+                        "asterisks; write <b>...</b>")
+  endif()
+  file(READ ${OUT}/scene-format.md format)
+  string(FIND "${format}" "| ${i}. @ref step${page} " row)
+  if(row EQUAL -1)
+    message(FATAL_ERROR "the scene format's table of what each chapter reads has no row for chapter ${i}")
+  endif()
   math(EXPR p "${i} - 2")
   math(EXPR n "${i}")
   foreach(kind Previous Next)

@@ -99,7 +99,8 @@ TEST_CASE("a chapter's options: malformed declarations and undeclared reads are 
 
 TEST_CASE("--help lists every shared option on the usage line and the chapter's own with their defaults")
 {
-  const std::string text = usageText({"step08_mis", "scenes/mis.json", 64, true, kOwn});
+  const std::string text = usageText({"step08_mis", "scenes/mis.json", 64, true, "the camera and glass", kOwn});
+  CHECK(text.find("\nreads from a scene: the camera and glass\n") != std::string::npos);
   CHECK(text.rfind("usage: step08_mis [SCENE.json]", 0) == 0); // the usage line comes first
   const std::string usageLines = text.substr(0, text.find("\n\n"));
   for (const char* option : {"-o FILE", "--width W", "--height H", "--spp N", "--time SECONDS", "--samples F:C",
@@ -112,6 +113,6 @@ TEST_CASE("--help lists every shared option on the usage line and the chapter's 
   CHECK(text.find("the MIS heuristic (default: power)") != std::string::npos);
   CHECK(text.find("--bounces N        bounces (default: 3)") != std::string::npos);
   // A chapter that does not sample adaptively says so beside --adaptive.
-  CHECK(usageText({"step04_shadows", "s.json", 1, false, {}}).find("this one ignores it") != std::string::npos);
-  CHECK(usageText({"step04_shadows", "s.json", 1, false, {}}).find("own options") == std::string::npos);
+  CHECK(usageText({"step04_shadows", "s.json", 1, false, "", {}}).find("this one ignores it") != std::string::npos);
+  CHECK(usageText({"step04_shadows", "s.json", 1, false, "", {}}).find("own options") == std::string::npos);
 }
