@@ -1,5 +1,5 @@
 /// @file options.h
-/// @brief The command line every chapter shares (DESIGN.md, section 4), parsed into RenderOptions.
+/// @brief The command line every chapter shares (docs/command-line.md), parsed into RenderOptions.
 #pragma once
 
 #include <cstdint>

@@ -1,4 +1,4 @@
-// The command line of a chapter (DESIGN.md section 4; issues 2 and 9): every bad input ends the program with
+// The command line of a chapter (docs/command-line.md; issues 2, 9 and 26): every bad input ends the program with
 // one message that names the file, the place in it and the fault, the documented exit status (2 for a bad
 // command line, 1 for bad input or a failed write, 130 when interrupted), and no file written or half written.
 #include "process.h"
