@@ -101,7 +101,8 @@ public:
 /// or .exr for --variance; the extension in any case), one file given as two outputs, both --spp and --time, or
 /// --samples without --spp holding it (or with --adaptive). @throws std::logic_error if a chapter's option is
 /// malformed (a shared option's name, a default that fails its own checks).
-RenderOptions parseCommandLine(int argc, const char* const* argv, const std::vector<ChapterOption>& chapterOptions = {});
+RenderOptions parseCommandLine(int argc, const char* const* argv,
+                               const std::vector<ChapterOption>& chapterOptions = {});
 
 /// What --help says of a chapter: its binary, default scene and samples per pixel, and its own options.
 struct UsageInfo {

@@ -38,7 +38,8 @@ std::string describeReads(unsigned uses)
   std::string out;
   for (std::size_t i = 0; i < parts.size(); ++i)
     out += (i == 0 ? "" : (i + 1 == parts.size() ? " and " : ", ")) + parts[i];
-  if ((uses & kUsesSpheres) && (uses & kUsesColors) && !((uses & kUsesMirror) && (uses & kUsesGlass) && (uses & kUsesGlossy)))
+  const unsigned everyKind = kUsesMirror | kUsesGlass | kUsesGlossy;
+  if ((uses & kUsesSpheres) && (uses & kUsesColors) && (uses & everyKind) != everyKind)
     out += " (the other kinds of material are shaded as diffuse)";
   return out;
 }
@@ -215,8 +216,9 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
 {
-  return runChapter(argc, argv, chapter,
-                    OptionsTraceFactory([&makeTrace](const Scene& scene, const ChapterOptions&) { return makeTrace(scene); }));
+  return runChapter(argc, argv, chapter, OptionsTraceFactory([&makeTrace](const Scene& scene, const ChapterOptions&) {
+                      return makeTrace(scene);
+                    }));
 }
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace)
@@ -339,7 +341,8 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
     // A pass cut short leaves some pixels with more samples than the others: fine for an image, but a partial film
     // must hold whole passes (its header lists the sample indices every pixel holds).
     const bool cut = result.interrupted && (result.partialPass > 0 || result.spp == 0);
-    if (cut && std::any_of(outputs.begin(), outputs.end(), [](const std::string& p) { return fileExtension(p) == ".film"; })) {
+    if (cut && std::any_of(outputs.begin(), outputs.end(),
+                           [](const std::string& p) { return fileExtension(p) == ".film"; })) {
       if (ranks.root())
         std::cerr << name << ": interrupted in the middle of a pass: a .film holds whole passes only; nothing was "
                      "written\n";
@@ -395,8 +398,9 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
       const bool traced = result.rays > 0;
       const std::uint64_t rays = traced ? result.rays : result.cameraRays;
       const double mrays = result.seconds > 0 ? double(rays) / result.seconds / 1e6 : 0.0;
-      std::snprintf(line, sizeof line, traced ? "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s"
-                                              : "%s: %dx%d, %d spp, %.2f s, %s camera rays made (none traced), %.2f M/s",
+      std::snprintf(line, sizeof line,
+                    traced ? "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s"
+                           : "%s: %dx%d, %d spp, %.2f s, %s camera rays made (none traced), %.2f M/s",
                     name.c_str(), mean.width, height, result.spp, result.seconds, formatCount(rays).c_str(), mrays);
       std::cerr << line;
       if (options.samples)

@@ -133,11 +133,12 @@ int main(int argc, char** argv)
   // The light sampler is built once per scene, before the render, and shared (read-only) by every thread.
   // The plan (scene_plan.h): with no emitter and no point light there is nothing to sample, so the trace does BSDF
   // sampling only (exact: the image is the same, bit for bit).
-  return runChapter(argc, argv, chapter, [&chapter](const Scene& scene, const ChapterOptions& options) -> TraceFunction {
+  auto makeTrace = [&chapter](const Scene& scene, const ChapterOptions& options) -> TraceFunction {
     const Heuristic heuristic = options.choice("--heuristic") == "power" ? Heuristic::Power : Heuristic::Balance;
     return [heuristic, lights = LightSampler(scene), sampleLights = planScene(scene, chapter.uses).lightSampling()](
                const Scene& s, const Ray& ray, Sampler& sampler, int maxDepth) {
       return trace(lights, sampleLights, heuristic, s, ray, sampler, maxDepth);
     };
-  });
+  };
+  return runChapter(argc, argv, chapter, makeTrace);
 }

@@ -64,7 +64,8 @@ int main(int argc, char** argv)
 {
   const ChapterInfo chapter{.binary = "step09_bvh",
                             .defaultScene = "random_diffuse.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground | kShadowRays,
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground |
+                                    kShadowRays,
                             .besideTrace = [](const Scene& s, const Ray& r, Sampler& sampler, int) {
                               return work(s, r, sampler);
                             },

@@ -269,7 +269,10 @@ TEST_CASE("command-line faults exit with status 2 and write nothing")
   {
     expectUsageError({"--quiet=yes"}, "--quiet takes no value, got '--quiet=yes'");
   }
-  SECTION("a bad value in the --name=value spelling") { expectUsageError({"--spp=0"}, "--spp must lie in [1, 16777216], got 0"); }
+  SECTION("a bad value in the --name=value spelling")
+  {
+    expectUsageError({"--spp=0"}, "--spp must lie in [1, 16777216], got 0");
+  }
   SECTION("a missing value") { expectUsageError({"--spp"}, "--spp expects a value"); }
   SECTION("a bad number") { expectUsageError({"--spp", "abc"}, "--spp expects a whole number, got 'abc'"); }
   SECTION("a number with a tail") { expectUsageError({"--width", "64px"}, "--width expects a whole number, got '64px'"); }
@@ -593,7 +596,8 @@ TEST_CASE("one of --width and --height keeps the scene's aspect ratio; either re
   CHECK(size({"--width", "1"}) == std::pair(1, 1)); // never 0
   CHECK(size({"--width", "100", "--height", "10"}) == std::pair(100, 10));
   // A scene whose own size is beyond the limit renders at the size the command line gives it.
-  writeFile(dir.path() / "scene.json", withFault(R"("width": 64, "height": 48)", R"("width": 100000, "height": 100000)"));
+  writeFile(dir.path() / "scene.json",
+            withFault(R"("width": 64, "height": 48)", R"("width": 100000, "height": 100000)"));
   CHECK(size({"--width", "32"}) == std::pair(32, 32));
   CHECK(size({"--width", "20", "--height", "10"}) == std::pair(20, 10));
   // The aspect ratio may make the other side too large: refused, as the command line's own.

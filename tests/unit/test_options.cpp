@@ -76,7 +76,8 @@ TEST_CASE("a chapter's options: faults are usage errors that name the option")
   CHECK_THROWS_WITH(parse({"--radius=-1"}), "--radius must lie in [0, 10], got -1");
   CHECK_THROWS_WITH(parse({"--strategy", "1,"}), "--strategy expects whole numbers separated by commas, got '1,'");
   CHECK_THROWS_WITH(parse({"--strategy", "1,17"}), "--strategy must lie in [0, 16], got 17");
-  CHECK_THROWS_WITH(parse({"--heuristc", "power"}), "unknown option '--heuristc' (did you mean '--heuristic'?); see --help");
+  CHECK_THROWS_WITH(parse({"--heuristc", "power"}),
+                    "unknown option '--heuristc' (did you mean '--heuristic'?); see --help");
   CHECK_THROWS_WITH(parse({"--sp=4"}), "unknown option '--sp=4' (did you mean '--spp'?); see --help");
   // Without the declaration the option is unknown.
   CHECK_THROWS_WITH(parse({"--heuristic", "power"}, {}), Catch::Contains("unknown option '--heuristic'"));
