@@ -1,5 +1,6 @@
 #include "render/options.h"
 
+#include "core/edit_distance.h"
 #include "render/image_io.h"
 #include "scene/scene.h"
 
@@ -43,23 +44,6 @@ double parsePositive(const std::string& flag, const std::string& text)
 constexpr const char* kShared[] = {"--help",    "--output", "--variance",  "--stats", "--width",
                                    "--height",  "--spp",    "--time",      "--samples", "--seed",
                                    "--threads", "--max-depth", "--quiet",  "--verbose", "--adaptive"};
-
-std::size_t editDistance(const std::string& a, const std::string& b)
-{
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j)
-    row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
 
 // The option nearest to `word` by edit distance, if it is close: for "did you mean".
 std::string nearestFlag(const std::string& word, const std::vector<ChapterOption>& chapterOptions)

@@ -2,6 +2,7 @@
 // once, as "FILE:LINE:COLUMN: /json/path: what is wrong", and nothing is half-loaded.
 #include "scene/scene.h"
 
+#include "core/edit_distance.h"
 #include "scene/mesh_file.h"
 
 #include <nlohmann/json.hpp>
@@ -240,23 +241,6 @@ std::string printable(std::string_view text)
     i += n;
   }
   return out;
-}
-
-std::size_t editDistance(std::string_view a, std::string_view b)
-{
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j)
-    row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
 }
 
 // " (did you mean 'x'?)" for the nearest candidate within a small edit distance, else "".
