@@ -547,7 +547,7 @@ TEST_CASE("a second Ctrl-C stops at once and writes nothing")
   CHECK(std::chrono::steady_clock::now() - sent < std::chrono::seconds(5));
 }
 
-TEST_CASE("--spp and --time mean more samples in a chapter of one ray per pixel: spread over the pixel (issue 26)")
+TEST_CASE("in a chapter of one ray per pixel --spp and --time spread the samples over the pixel (issue 26)")
 {
   // Chapter 4 sends its one ray through each pixel's centre; more samples of that same ray would change nothing.
   const TempDir dir;
@@ -577,7 +577,7 @@ TEST_CASE("--spp and --time mean more samples in a chapter of one ray per pixel:
   CHECK(close > int(a.pixels.size() / 3 * 8 / 10));
 }
 
-TEST_CASE("one of --width and --height keeps the scene's aspect ratio; either rescues a scene too large (issue 26)")
+TEST_CASE("one of --width and --height keeps the scene aspect ratio - either rescues a scene too large (issue 26)")
 {
   const TempDir dir;
   writeFile(dir.path() / "scene.json", kScene); // 64x48

@@ -98,7 +98,7 @@ TEST_CASE("a chapter's options: malformed declarations and undeclared reads are 
   CHECK_THROWS_AS(o.number("--nothing"), std::logic_error);
 }
 
-TEST_CASE("--help lists every shared option on the usage line and the chapter's own with their defaults")
+TEST_CASE("the help text lists every shared option on the usage line and the chapter own ones with defaults")
 {
   const std::string text = usageText({"step08_mis", "scenes/mis.json", 64, true, "the camera and glass", kOwn});
   CHECK(text.find("\nreads from a scene: the camera and glass\n") != std::string::npos);
