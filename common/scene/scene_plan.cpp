@@ -51,13 +51,13 @@ std::vector<std::string> describePlan(const ScenePlan& plan)
   } else if (uses & kUsesPointLights) {
     lines.push_back("plan: " + count(plan.pointLights, "point light", "point lights") +
                     " -> each taken as seen from every point (no shadow rays until chapter 4)");
-  } else if (uses & kUsesEmission) {
+  } else if ((uses & kUsesEmission) && (uses & kUsesMaxDepth)) { // (a path tracer; chapter 10 only colours them)
     lines.push_back("plan: " + count(plan.emitters, "emitter", "emitters") +
                     " -> found only by paths that hit them (no light sampling until chapter 7)");
   }
   if (uses & kUsesGlass)
     lines.push_back(plan.glass ? "plan: glass -> refraction" : "plan: no glass -> no refraction");
-  if (uses & kUsesEmission) // (a chapter that follows rays on; the others return the background on a miss)
+  if (uses & kUsesMaxDepth) // (a chapter that follows rays on; the others return the background on a miss)
     lines.push_back(plan.backgroundBlack ? "plan: background black -> no environment lookups"
                                          : "plan: background not black -> environment lookups on escape");
   return lines;

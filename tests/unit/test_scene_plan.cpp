@@ -100,6 +100,9 @@ TEST_CASE("the plan speaks of what the chapter does, in its words (issue 26)")
                        kUsesGlossy | kUsesMaxDepth;
   CHECK(describePlan(planScene(load("cornell.json"), six))[1] ==
         "plan: 1 emitter -> found only by paths that hit them (no light sampling until chapter 7)");
+  // Chapter 10 lights what it sees from the eye: neither emitters nor environments are looked for.
+  CHECK(describePlan(planScene(load("meshes.json"), kUsesSpheres | kUsesColors | kUsesBackground | kUsesEmission))
+            .size() == 1);
   // Chapter 1 intersects nothing.
   CHECK(describePlan(planScene(spheres, 0)) ==
         std::vector<std::string>{"plan: nothing is intersected -> no geometry, no lights"});
