@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <string>
 
 namespace raylife {
 
@@ -44,6 +45,53 @@ inline Color heatColor(Real cost)
     c[k] = Real(srgbToLinear(srgb));
   }
   return c;
+}
+
+/// Draws the heat map's colour scale across the bottom of columns [x0, x1) of `image`: a bar from 1 to
+/// kHeatMapMaxCost on heatColor's logarithmic scale, with the work values 1, 8, 64, 512 and 4096 written under
+/// their places, white on black (digits of 3 × 5 pixels, scaled up once the image is 180 pixels tall). An image
+/// too small to hold it (under 48 × 24 pixels for the columns given) is left as it is.
+/// @param image The image to draw on (linear RGB).
+/// @param x0 The first column of the heat map, ≥ 0.
+/// @param x1 One past its last column, ≤ image.width.
+inline void drawHeatLegend(Image& image, int x0, int x1)
+{
+  static constexpr const char* kDigits[10][5] = {
+      {"###", "# #", "# #", "# #", "###"}, {" # ", "## ", " # ", " # ", "###"}, {"###", "  #", "###", "#  ", "###"},
+      {"###", "  #", "###", "  #", "###"}, {"# #", "# #", "###", "  #", "  #"}, {"###", "#  ", "###", "  #", "###"},
+      {"###", "#  ", "###", "# #", "###"}, {"###", "  #", "  #", "  #", "  #"}, {"###", "# #", "###", "# #", "###"},
+      {"###", "# #", "###", "  #", "###"}};
+  const int s = std::max(1, image.height / 90); // pixels per font pixel
+  const int margin = 2 * s, barHeight = 4 * s, strip = margin + barHeight + s + 5 * s + margin;
+  if (x1 - x0 < 48 || image.height < 24 + strip)
+    return;
+  const int y0 = image.height - strip, left = x0 + margin + 8 * s, right = x1 - margin - 8 * s;
+  auto put = [&](int x, int y, const Color& c) {
+    for (int k = 0; k < 3; ++k)
+      image.at(x, y, k) = float(c[k]);
+  };
+  for (int y = y0; y < image.height; ++y)
+    for (int x = x0; x < x1; ++x)
+      put(x, y, Color(0));
+  const Real logMax = std::log2(1 + kHeatMapMaxCost);
+  for (int x = left; x < right; ++x) {
+    const Real t = (Real(x - left) + Real(0.5)) / Real(right - left);
+    for (int y = y0 + margin; y < y0 + margin + barHeight; ++y)
+      put(x, y, heatColor(std::exp2(t * logMax) - 1));
+  }
+  for (const int value : {1, 8, 64, 512, 4096}) {
+    const std::string text = std::to_string(value);
+    const int centre = left + int(std::lround(std::log2(1.0 + value) / double(logMax) * (right - left)));
+    const int width = int(text.size()) * 4 * s - s;
+    const int start = std::clamp(centre - width / 2, x0 + margin, x1 - margin - width);
+    for (std::size_t i = 0; i < text.size(); ++i)
+      for (int row = 0; row < 5; ++row)
+        for (int col = 0; col < 3; ++col)
+          if (kDigits[text[i] - '0'][row][col] == '#')
+            for (int dy = 0; dy < s; ++dy)
+              for (int dx = 0; dx < s; ++dx)
+                put(start + int(i) * 4 * s + col * s + dx, y0 + margin + barHeight + s + row * s + dy, Color(1));
+  }
 }
 
 } // namespace raylife

@@ -13,7 +13,7 @@ struct ImageDifference {
   double maxAbs = 0;        ///< Largest |a − b| of any channel.
   double rmse = 0;          ///< √(mean of (a − b)²).
   double psnr = 0;          ///< 10·log10(1 / mse), in dB, peak 1 (+∞ for identical images).
-  double relativeMse = 0;   ///< Mean of (a − b)² / (b² + 0.01), b being the reference (DESIGN.md §7).
+  double relativeMse = 0;   ///< Mean of (a − b)² / (b² + 0.01), b being the reference (docs/benchmarks.md).
   double overTolerance = 0; ///< Share of pixels, in [0, 1], with any channel's |a − b| > the tolerance.
   int worstX = 0;           ///< Pixel of the largest difference.
   int worstY = 0;           ///< Pixel of the largest difference.

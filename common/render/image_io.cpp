@@ -138,12 +138,20 @@ Image readPng(const std::string& path)
   return image;
 }
 
-namespace {
-bool endsWith(const std::string& s, const char* suffix)
+std::string fileExtension(const std::string& path)
 {
-  const std::size_t n = std::strlen(suffix);
-  return s.size() >= n && s.compare(s.size() - n, n, suffix) == 0;
+  const std::size_t slash = path.find_last_of('/'), dot = path.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash))
+    return "";
+  std::string extension = path.substr(dot);
+  for (char& c : extension)
+    c = char(std::tolower(static_cast<unsigned char>(c)));
+  return extension;
 }
+
+namespace {
+// Whether `path` has the extension `suffix` (lower case, with its dot), in any case.
+bool endsWith(const std::string& path, const char* suffix) { return fileExtension(path) == suffix; }
 } // namespace
 
 bool isImagePath(const std::string& path)

@@ -43,8 +43,11 @@ Image readExr(const std::string& path);
 /// Reads a PNG, PFM or EXR file, chosen by its extension. @throws ImageIoError.
 Image readImage(const std::string& path);
 
-/// True when `path` ends in ".png", ".pfm" or ".exr" (case-sensitive): the image formats raylife writes.
+/// True when `path` ends in ".png", ".pfm" or ".exr" (in any case, ".PNG" too): the image formats raylife writes.
 bool isImagePath(const std::string& path);
+
+/// The extension of `path`'s file name in lower case, with its dot (".png"), or "" if it has none.
+std::string fileExtension(const std::string& path);
 
 /// Encodes `image` in the format `path`'s extension names (.png, .pfm or .exr). @throws ImageIoError otherwise.
 std::vector<unsigned char> encodeImage(const Image& image, const std::string& path);

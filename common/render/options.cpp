@@ -1,5 +1,7 @@
 #include "render/options.h"
 
+#include "core/edit_distance.h"
+#include "render/image_io.h"
 #include "scene/scene.h"
 
 #include <algorithm>
@@ -7,6 +9,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <iterator>
+#include <sstream>
+#include <stdexcept>
 
 namespace raylife {
 
@@ -36,67 +40,193 @@ double parsePositive(const std::string& flag, const std::string& text)
   return v;
 }
 
-bool endsWith(const std::string& s, const std::string& suffix)
-{
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
+// The shared options' names (and -h, -o, -q for three of them).
+constexpr const char* kShared[] = {"--help",    "--output", "--variance",  "--stats", "--width",
+                                   "--height",  "--spp",    "--time",      "--samples", "--seed",
+                                   "--threads", "--max-depth", "--quiet",  "--verbose", "--adaptive"};
 
-// The flag nearest to `arg` by edit distance (ignoring an "=value" tail), if it is close: for "did you mean".
-std::string nearestFlag(const std::string& arg)
+// The option nearest to `word` by edit distance, if it is close: for "did you mean".
+std::string nearestFlag(const std::string& word, const std::vector<ChapterOption>& chapterOptions)
 {
-  const std::string word = arg.substr(0, arg.find('='));
-  static const char* const flags[] = {"--help", "--output", "--variance", "--stats", "--width", "--height", "--spp",
-                                      "--time", "--seed", "--threads", "--max-depth", "--quiet", "--samples"};
+  std::vector<std::string> names;
+  for (const char* name : kShared)
+    names.push_back(name);
+  for (const ChapterOption& o : chapterOptions)
+    names.push_back(o.name);
   std::string best;
   std::size_t bestDistance = 3;
-  for (const char* flag : flags) {
-    const std::string f = flag;
-    std::vector<std::size_t> row(f.size() + 1);
-    for (std::size_t j = 0; j <= f.size(); ++j)
-      row[j] = j;
-    for (std::size_t i = 1; i <= word.size(); ++i) {
-      std::size_t diagonal = row[0];
-      row[0] = i;
-      for (std::size_t j = 1; j <= f.size(); ++j) {
-        const std::size_t above = row[j];
-        row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (word[i - 1] == f[j - 1] ? 0 : 1)});
-        diagonal = above;
-      }
+  for (const std::string& name : names)
+    if (const std::size_t d = editDistance(word, name); d < bestDistance) {
+      bestDistance = d;
+      best = name;
     }
-    if (row[f.size()] < bestDistance) {
-      bestDistance = row[f.size()];
-      best = f;
+  return best;
+}
+
+// Checks `text` as a value of chapter option `o`; throws UsageError naming `o` if it is not one.
+void checkChapterValue(const ChapterOption& o, const std::string& text)
+{
+  auto inRange = [&](double v, const std::string& shown) {
+    if (v < o.min || v > o.max) {
+      std::ostringstream range;
+      range << o.name << " must lie in [" << o.min << ", " << o.max << "], got " << shown;
+      throw UsageError(range.str());
+    }
+  };
+  auto whole = [&](const std::string& item) {
+    errno = 0;
+    char* end = nullptr;
+    const long long v = std::strtoll(item.c_str(), &end, 10);
+    if (item.empty() || *end != '\0' || errno == ERANGE)
+      throw UsageError(o.name + " expects " + (o.kind == OptionKind::IntegerList ? "whole numbers separated by commas"
+                                                                                  : "a whole number") +
+                       ", got '" + text + "'");
+    inRange(double(v), item);
+  };
+  switch (o.kind) {
+  case OptionKind::Flag:
+    return;
+  case OptionKind::Choice: {
+    if (std::find(o.choices.begin(), o.choices.end(), text) != o.choices.end())
+      return;
+    std::string words;
+    for (std::size_t i = 0; i < o.choices.size(); ++i)
+      words += (i == 0 ? "" : i + 1 == o.choices.size() ? " or " : ", ") + o.choices[i];
+    throw UsageError(o.name + " must be " + words + ", got '" + text + "'");
+  }
+  case OptionKind::Integer:
+    whole(text);
+    return;
+  case OptionKind::Number: {
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(text.c_str(), &end);
+    if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v))
+      throw UsageError(o.name + " expects a number, got '" + text + "'");
+    inRange(v, text);
+    return;
+  }
+  case OptionKind::IntegerList: {
+    std::size_t from = 0;
+    for (;;) {
+      const std::size_t comma = text.find(',', from);
+      whole(text.substr(from, comma == std::string::npos ? std::string::npos : comma - from));
+      if (comma == std::string::npos)
+        return;
+      from = comma + 1;
     }
   }
-  return best;
+  }
+}
+
+// Checks a chapter's declared options: a programming error, not the user's, if one is malformed.
+void checkDeclarations(const std::vector<ChapterOption>& chapterOptions)
+{
+  for (std::size_t i = 0; i < chapterOptions.size(); ++i) {
+    const ChapterOption& o = chapterOptions[i];
+    const bool shared = std::any_of(std::begin(kShared), std::end(kShared),
+                                    [&](const char* name) { return o.name == name; });
+    if (o.name.size() < 3 || o.name.rfind("--", 0) != 0 || o.name.find('=') != std::string::npos || shared)
+      throw std::logic_error("a chapter option needs a name of its own, '--' and a word: '" + o.name + "'");
+    for (std::size_t j = 0; j < i; ++j)
+      if (chapterOptions[j].name == o.name)
+        throw std::logic_error("the chapter option " + o.name + " is declared twice");
+    if (o.kind == OptionKind::Choice && o.choices.empty())
+      throw std::logic_error("the chapter option " + o.name + " is a choice without words");
+    try {
+      if (o.kind != OptionKind::Flag)
+        checkChapterValue(o, o.defaultValue);
+    } catch (const UsageError& e) {
+      throw std::logic_error(std::string("the default of a chapter option fails its checks: ") + e.what());
+    }
+  }
+}
+
+const ChapterOption* findOption(const std::vector<ChapterOption>& options, const std::string& name)
+{
+  for (const ChapterOption& o : options)
+    if (o.name == name)
+      return &o;
+  return nullptr;
 }
 
 } // namespace
 
-RenderOptions parseCommandLine(int argc, const char* const* argv)
+const std::string& ChapterOptions::value(const std::string& name, OptionKind kind) const
 {
+  const ChapterOption* o = findOption(specs_, name);
+  if (!o || o->kind != kind)
+    throw std::logic_error("the chapter reads an option it did not declare (or as another kind): " + name);
+  const auto given = given_.find(name);
+  return given != given_.end() ? given->second : o->defaultValue;
+}
+
+bool ChapterOptions::flag(const std::string& name) const
+{
+  value(name, OptionKind::Flag); // (checks the declaration)
+  return given(name);
+}
+
+std::string ChapterOptions::choice(const std::string& name) const { return value(name, OptionKind::Choice); }
+
+long long ChapterOptions::integer(const std::string& name) const
+{
+  return std::stoll(value(name, OptionKind::Integer));
+}
+
+double ChapterOptions::number(const std::string& name) const { return std::stod(value(name, OptionKind::Number)); }
+
+std::vector<long long> ChapterOptions::integers(const std::string& name) const
+{
+  const std::string& text = value(name, OptionKind::IntegerList);
+  std::vector<long long> out;
+  for (std::size_t from = 0;;) {
+    const std::size_t comma = text.find(',', from);
+    out.push_back(std::stoll(text.substr(from, comma == std::string::npos ? std::string::npos : comma - from)));
+    if (comma == std::string::npos)
+      return out;
+    from = comma + 1;
+  }
+}
+
+RenderOptions parseCommandLine(int argc, const char* const* argv, const std::vector<ChapterOption>& chapterOptions)
+{
+  checkDeclarations(chapterOptions);
   RenderOptions o;
+  std::map<std::string, std::string> chapterValues;
   for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
+    const std::string word = argv[i];
+    // "--name=value" is "--name value".
+    const std::size_t equals = word.rfind("--", 0) == 0 ? word.find('=') : std::string::npos;
+    const std::string arg = word.substr(0, equals);
+    const std::optional<std::string> inlineValue =
+        equals == std::string::npos ? std::nullopt : std::optional(word.substr(equals + 1));
     auto value = [&]() -> std::string {
+      if (inlineValue)
+        return *inlineValue;
       if (i + 1 >= argc)
         throw UsageError(arg + " expects a value");
       return argv[++i];
     };
+    auto noValue = [&] {
+      if (inlineValue)
+        throw UsageError(arg + " takes no value, got '" + word + "'");
+    };
     if (arg == "--help" || arg == "-h") {
+      noValue();
       o.help = true;
     } else if (arg == "-o" || arg == "--output") {
       const std::string path = value();
-      const char* kinds[] = {".png", ".pfm", ".exr", ".film"};
-      if (std::none_of(std::begin(kinds), std::end(kinds), [&](const char* k) { return endsWith(path, k); }))
+      const std::string kind = fileExtension(path);
+      if (kind != ".png" && kind != ".pfm" && kind != ".exr" && kind != ".film")
         throw UsageError(arg + " '" + path + "': unknown format (the output must end in .png, .pfm, .exr or .film)");
       for (const std::string& given : o.outputs) // (one file given twice is reported below)
-        if (given != path && given.substr(given.rfind('.')) == path.substr(path.rfind('.')))
-          throw UsageError("-o is given two " + path.substr(path.rfind('.')) + " files; one of each format");
+        if (given != path && fileExtension(given) == kind)
+          throw UsageError("-o is given two " + kind + " files; one of each format");
       o.outputs.push_back(path);
     } else if (arg == "--variance") {
       o.variancePath = value();
-      if (!endsWith(o.variancePath, ".pfm") && !endsWith(o.variancePath, ".exr"))
+      if (fileExtension(o.variancePath) != ".pfm" && fileExtension(o.variancePath) != ".exr")
         throw UsageError("--variance '" + o.variancePath + "': the variance image must be a .pfm or .exr file");
     } else if (arg == "--stats") {
       o.statsPath = value();
@@ -124,14 +254,25 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
     } else if (arg == "--max-depth") {
       o.maxDepth = int(parseInteger(arg, value(), 0, 1 << 20));
     } else if (arg == "--quiet" || arg == "-q") {
+      noValue();
       o.quiet = true;
     } else if (arg == "--verbose") {
+      noValue();
       o.verbose = true;
     } else if (arg == "--adaptive") {
       o.adaptive = parsePositive(arg, value());
+    } else if (const ChapterOption* option = findOption(chapterOptions, arg)) {
+      if (option->kind == OptionKind::Flag) {
+        noValue();
+        chapterValues[arg] = "";
+      } else {
+        const std::string text = value();
+        checkChapterValue(*option, text);
+        chapterValues[arg] = text;
+      }
     } else if (arg.size() > 1 && arg[0] == '-') {
-      const std::string near = nearestFlag(arg);
-      throw UsageError("unknown option '" + arg + "'" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+      const std::string near = nearestFlag(arg, chapterOptions);
+      throw UsageError("unknown option '" + word + "'" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
                        "; see --help");
     } else {
       if (!o.scenePath.empty())
@@ -139,6 +280,7 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
       o.scenePath = arg;
     }
   }
+  o.chapter = ChapterOptions(chapterOptions, std::move(chapterValues));
   if (o.spp && o.seconds)
     throw UsageError("give --spp or --time, not both");
   if (o.samples && !o.spp)
@@ -161,33 +303,87 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
   return o;
 }
 
-std::string usageText(const std::string& binary, const std::string& defaultScene)
+namespace {
+// What an option's value looks like in --help.
+std::string metavar(const ChapterOption& o)
 {
-  return "usage: " + binary +
-         " [SCENE.json] [-o FILE.png|.pfm|.exr|.film] [--width W] [--height H]\n"
-         "       [--spp N | --time SECONDS] [--seed S] [--threads T] [--max-depth D] [--quiet] [--help]\n"
-         "\n"
-         "  SCENE.json         scene file (default: " + defaultScene + ")\n"
-         "  -o FILE            output image, .png (clamped, sRGB), .pfm or .exr (linear, unclamped), or\n"
-         "                     .film (exact sums, for raylife_merge); one of each (default: out/" + binary + ".png)\n"
-         "  --width W          image width in pixels (default: the scene's)\n"
-         "  --height H         image height in pixels (default: the scene's)\n"
-         "  --spp N            samples per pixel (default: the chapter's)\n"
-         "  --time SECONDS     render progressively until SECONDS have passed, then write\n"
-         "  --samples F:C      only sample indices F to F+C-1 of --spp N (a job of an array; merge\n"
-         "                     the .film outputs with raylife_merge)\n"
-         "  --seed S           random seed; the same seed gives the same image on any thread count\n"
-         "  --threads T        threads (default: every core)\n"
-         "  --max-depth D      longest path, in bounces (chapters that recurse)\n"
-         "  --variance FILE    also write each pixel's variance of the mean, as PFM or EXR\n"
-         "  --stats FILE       also write the render's figures as JSON\n"
-         "  --quiet            no progress bar and no summary line\n"
-         "  --verbose          print the render's plan (what the scene lets it skip) on standard error\n"
-         "  --adaptive E       Monte Carlo chapters (6 to 8): a pixel stops taking samples once the relative\n"
-         "                     standard error of its mean is below E (biased a little; see docs/09_bvh.md)\n"
-         "  --help             this text\n"
-         "\n"
-         "exit status: 0 done, 1 bad input or a failed write, 2 bad command line, 130 interrupted\n";
+  switch (o.kind) {
+  case OptionKind::Flag:
+    return "";
+  case OptionKind::Choice: {
+    std::string words;
+    for (std::size_t i = 0; i < o.choices.size(); ++i)
+      words += (i == 0 ? "" : "|") + o.choices[i];
+    return words;
+  }
+  case OptionKind::Integer:
+    return "N";
+  case OptionKind::Number:
+    return "X";
+  case OptionKind::IntegerList:
+    return "N,N,...";
+  }
+  return "";
+}
+} // namespace
+
+std::string usageText(const UsageInfo& info)
+{
+  const std::string& binary = info.binary;
+  const std::string indent(8 + binary.size(), ' ');
+  std::string own;
+  for (const ChapterOption& o : info.options) {
+    const std::string m = metavar(o);
+    own += " [" + o.name + (m.empty() ? "" : " " + m) + "]";
+  }
+  std::string text =
+      "usage: " + binary + " [SCENE.json] [-o FILE.png|.pfm|.exr|.film]... [--width W] [--height H]\n" + indent +
+      "[--spp N | --time SECONDS] [--samples F:C] [--seed S] [--threads T] [--max-depth D]\n" + indent +
+      "[--variance FILE] [--stats FILE] [--adaptive E] [--verbose] [--quiet] [--help]\n" +
+      (own.empty() ? "" : indent + own.substr(1) + "\n") +
+      "\n"
+      "  SCENE.json         scene file (default: " + info.defaultScene + ")\n"
+      "  -o FILE            output image, .png (clamped, sRGB), .pfm or .exr (linear, unclamped), or\n"
+      "                     .film (exact sums, for raylife_merge); one of each (default: out/" + binary + ".png)\n"
+      "                     (to look at a .pfm or .exr: raylife_image convert x.pfm x.png --exposure E)\n"
+      "  --width W          image width in pixels (default: the scene's; given alone, the height follows\n"
+      "                     the scene's aspect ratio)\n"
+      "  --height H         image height in pixels (default: the scene's; likewise)\n"
+      "  --spp N            samples per pixel (default: " + std::to_string(info.defaultSpp) + ")\n"
+      "  --time SECONDS     render progressively until SECONDS have passed, then write\n"
+      "  --samples F:C      only sample indices F to F+C-1 of --spp N (a job of an array; merge\n"
+      "                     the .film outputs with raylife_merge)\n"
+      "  --seed S           random seed; the same seed gives the same image on any thread count\n"
+      "  --threads T        threads (default: every core)\n"
+      "  --max-depth D      longest path, in bounces (chapters that recurse)\n"
+      "  --variance FILE    also write each pixel's variance of the mean, as PFM or EXR\n"
+      "  --stats FILE       also write the render's figures as JSON\n"
+      "  --adaptive E       stop sampling a pixel once the relative standard error of its mean is below E\n"
+      "                     (0.05: 5 %); --spp N is then the most a pixel takes. It saves where much of\n"
+      "                     the image settles fast (a sky: about half the time at E = 0.05) and little\n"
+      "                     where every pixel stays noisy (the Cornell box at 128 spp: almost every pixel\n"
+      "                     takes all 128 at E = 0.1). Biased a little; see docs/09_bvh.md" +
+      std::string(info.adaptive ? "\n" : "\n                     (chapters 6 to 8 only: this one ignores it)\n") +
+      "  --verbose          print the render's plan (what the scene lets it skip) on standard error\n"
+      "  --quiet, -q        no progress bar and no summary line\n"
+      "  --help, -h         this text\n";
+  if (!info.options.empty()) {
+    text += "\n" + binary + "'s own options:\n";
+    for (const ChapterOption& o : info.options) {
+      std::string left(2, ' '); // (built in steps: GCC 12 warns falsely on "  " + name)
+      left += o.name;
+      if (!metavar(o).empty())
+        left += " " + metavar(o);
+      left += left.size() < 21 ? std::string(21 - left.size(), ' ') : "\n" + std::string(21, ' ');
+      text += left + o.help + (o.kind == OptionKind::Flag ? "" : " (default: " + o.defaultValue + ")") + "\n";
+    }
+  }
+  if (!info.reads.empty())
+    text += "\nreads from a scene: " + info.reads + "\n";
+  text += "\n"
+          "Options with a value may be written --name value or --name=value.\n"
+          "exit status: 0 done, 1 bad input or a failed write, 2 bad command line, 130 interrupted\n";
+  return text;
 }
 
 } // namespace raylife

@@ -1,8 +1,10 @@
 /// @file options.h
-/// @brief The command line every chapter shares (DESIGN.md, section 4), parsed into RenderOptions.
+/// @brief The command line every chapter shares (docs/command-line.md), parsed into RenderOptions.
 #pragma once
 
 #include <cstdint>
+#include <limits>
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -10,6 +12,57 @@
 #include <vector>
 
 namespace raylife {
+
+/// The kind of value a chapter's own option takes (ChapterOption).
+enum class OptionKind {
+  Flag,        ///< No value: given or not ("--unweighted").
+  Choice,      ///< One word of ChapterOption::choices ("--heuristic balance").
+  Integer,     ///< A whole number in [min, max] ("--bounces 3").
+  Number,      ///< A finite real number in [min, max] ("--radius 0.5").
+  IntegerList, ///< Whole numbers in [min, max], separated by commas ("--strategy 1,2").
+};
+
+/// An option of a chapter's own, beside the shared ones: the chapter lists them in ChapterInfo::options, and the
+/// shared parser reads them (as "--name value" or "--name=value"), checks their values, puts them in --help and
+/// hands them to the chapter (ChapterOptions). Example: {"--heuristic", OptionKind::Choice, "the MIS heuristic",
+/// "power", {"power", "balance"}}.
+struct ChapterOption {
+  std::string name = {};              ///< "--" and a word, e.g. "--heuristic"; no shared option's name.
+  OptionKind kind = OptionKind::Flag; ///< What value it takes.
+  std::string help = {};              ///< One line for --help: what it does.
+  /// The value when the option is not given, spelt as on the command line (it must pass the same checks);
+  /// ignored for a flag, which is off unless given.
+  std::string defaultValue = {};
+  std::vector<std::string> choices = {};                       ///< Choice: the words allowed.
+  double min = -std::numeric_limits<double>::max();           ///< Integer, Number, IntegerList: the least value.
+  double max = std::numeric_limits<double>::max();            ///< Integer, Number, IntegerList: the largest value.
+};
+
+/// The values of a chapter's own options after parsing, each its default when not given.
+class ChapterOptions {
+public:
+  ChapterOptions() = default;
+  /// @param specs The chapter's options. @param given Raw values by name (checked), "" for a flag given.
+  ChapterOptions(std::vector<ChapterOption> specs, std::map<std::string, std::string> given)
+      : specs_(std::move(specs)), given_(std::move(given)) {}
+  /// Whether flag `name` was given. @throws std::logic_error if the chapter declared no such flag.
+  bool flag(const std::string& name) const;
+  /// The word of Choice `name`. @throws std::logic_error if the chapter declared no such choice.
+  std::string choice(const std::string& name) const;
+  /// The value of Integer `name`. @throws std::logic_error if the chapter declared no such option.
+  long long integer(const std::string& name) const;
+  /// The value of Number `name`. @throws std::logic_error if the chapter declared no such option.
+  double number(const std::string& name) const;
+  /// The values of IntegerList `name`. @throws std::logic_error if the chapter declared no such option.
+  std::vector<long long> integers(const std::string& name) const;
+  /// Whether option `name` was given on the command line (rather than taking its default).
+  bool given(const std::string& name) const { return given_.count(name) > 0; }
+
+private:
+  const std::string& value(const std::string& name, OptionKind kind) const;
+  std::vector<ChapterOption> specs_;
+  std::map<std::string, std::string> given_;
+};
 
 /// What the command line asked for. Zero or empty means "the chapter's or the scene's default".
 struct RenderOptions {
@@ -32,6 +85,7 @@ struct RenderOptions {
   /// --adaptive: a pixel stops taking samples once the estimated relative standard error of its mean falls below
   /// this (> 0, e.g. 0.02 for 2 %); honoured by the Monte Carlo chapters (6 to 8) only.
   std::optional<double> adaptive;
+  ChapterOptions chapter;           ///< The chapter's own options (ChapterInfo::options), defaults filled in.
 };
 
 /// A fault in the command line. what() says which argument and what is wrong.
@@ -40,13 +94,28 @@ public:
   using std::runtime_error::runtime_error;
 };
 
-/// Parses argv[1..argc). @throws UsageError on an unknown flag (suggesting the nearest known one), a missing or
-/// malformed value, a value out of range, more than one scene, two outputs of one format, an output that is not
-/// .png, .pfm, .exr or .film (.pfm or .exr for --variance), one file given as two outputs, both --spp and --time,
-/// or --samples without --spp holding it (or with --adaptive).
-RenderOptions parseCommandLine(int argc, const char* const* argv);
+/// Parses argv[1..argc): the shared options and the chapter's own (`chapterOptions`). Every option with a value
+/// may be written "--name value" or "--name=value". @throws UsageError on an unknown flag (suggesting the nearest
+/// known one), a missing or malformed value, a value out of range or not among a choice's words, a value given to
+/// a flag, more than one scene, two outputs of one format, an output that is not .png, .pfm, .exr or .film (.pfm
+/// or .exr for --variance; the extension in any case), one file given as two outputs, both --spp and --time, or
+/// --samples without --spp holding it (or with --adaptive). @throws std::logic_error if a chapter's option is
+/// malformed (a shared option's name, a default that fails its own checks).
+RenderOptions parseCommandLine(int argc, const char* const* argv,
+                               const std::vector<ChapterOption>& chapterOptions = {});
 
-/// The --help text for a binary called `binary` whose default scene is `defaultScene`.
-std::string usageText(const std::string& binary, const std::string& defaultScene);
+/// What --help says of a chapter: its binary, default scene and samples per pixel, and its own options.
+struct UsageInfo {
+  std::string binary;                 ///< e.g. "step08_mis".
+  std::string defaultScene;           ///< The default scene's path.
+  int defaultSpp = 1;                 ///< Samples per pixel without --spp or --time.
+  bool adaptive = false;              ///< Whether the chapter honours --adaptive.
+  /// What the chapter reads of a scene, as a phrase ("the camera, spheres and meshes, ..."); "" says nothing.
+  std::string reads = {};
+  std::vector<ChapterOption> options; ///< The chapter's own options.
+};
+
+/// The --help text of a chapter.
+std::string usageText(const UsageInfo& info);
 
 } // namespace raylife

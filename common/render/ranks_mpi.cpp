@@ -261,10 +261,12 @@ RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSetti
              MPI_COMM_WORLD);
 
   // The totals, on every rank (chapter 9's second image takes the samples the first one got).
-  std::uint64_t totals[4] = {mine.rays, mine.badSamples, std::uint64_t(mine.spp), mine.interrupted ? 1u : 0u};
-  MPI_Allreduce(MPI_IN_PLACE, totals, 4, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
-  double seconds = mine.seconds;
-  MPI_Allreduce(MPI_IN_PLACE, &seconds, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  std::uint64_t totals[5] = {mine.rays, mine.badSamples, std::uint64_t(mine.spp), mine.interrupted ? 1u : 0u,
+                             mine.cameraRays};
+  MPI_Allreduce(MPI_IN_PLACE, totals, 5, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  double longest[2] = {mine.seconds, mine.partialPass}; // (a pass cut short on any rank makes the whole one partial)
+  MPI_Allreduce(MPI_IN_PLACE, longest, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  const double seconds = longest[0];
 
   // The sample indices each rank took, to rank 0 (for a .film's header).
   std::vector<int> ranges;
@@ -287,6 +289,8 @@ RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSetti
   result.spp = int(totals[2]);
   result.meanSpp = double(result.spp);
   result.interrupted = totals[3] > 0;
+  result.cameraRays = totals[4];
+  result.partialPass = longest[1];
   result.seconds = seconds;
   if (root()) {
     std::vector<SampleRange> sorted;

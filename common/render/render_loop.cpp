@@ -182,13 +182,16 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
       batch = std::min(batch, nextCheckpoint - done);
     const int s0 = done, s1 = done + batch;
 
-    std::uint64_t rays = 0, bad = 0;
+    std::uint64_t rays = 0, bad = 0, pixelSamples = 0;
     std::atomic<int> tilesDone{0};
-#pragma omp parallel num_threads(threads) reduction(+ : rays, bad)
+#pragma omp parallel num_threads(threads) reduction(+ : rays, bad, pixelSamples)
     {
       const std::uint64_t raysBefore = rayCount();
 #pragma omp for schedule(dynamic, 1)
       for (std::size_t t = 0; t < tiles.size(); ++t) {
+        // A stop request is answered between tiles: a pass of a large image may take long.
+        if (settings.stop && settings.stop->load(std::memory_order_relaxed))
+          continue;
         const Tile& tile = tiles[t];
         // [pixel_loop]
         for (int y = tile.y0; y < tile.y1; ++y)
@@ -210,6 +213,7 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
               }
               result.film.add(x, y, L);
             }
+            pixelSamples += std::uint64_t(s1 - s0);
           }
         // [pixel_loop]
         const int tilesFinished = ++tilesDone;
@@ -226,11 +230,19 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
     }
     result.rays += rays;
     result.badSamples += bad;
+    samplesTaken += pixelSamples;
+    if (std::size_t(tilesDone.load()) < tiles.size()) {
+      // Stopped in the middle of the batch: the tiles done hold its samples, the others do not; spp counts the
+      // samples every pixel has.
+      result.interrupted = true;
+      result.partialPass = double(tilesDone.load()) / double(tiles.size());
+      break;
+    }
     done = s1;
     result.spp = done;
-    samplesTaken += std::uint64_t(batch) * activeCount;
   }
   result.meanSpp = double(samplesTaken) / double(active.size());
+  result.cameraRays = samplesTaken;
   result.samples = share.ranges(done);
   result.seconds = elapsed();
   if (settings.progress) {

@@ -76,7 +76,7 @@ struct RenderSettings {
   int maxDepth = -1;               ///< Passed to the trace function; −1: unlimited.
   PixelSampling pixelSampling = PixelSampling::Centre; ///< Where samples fall.
   bool progress = false;           ///< Draw a progress bar on standard error.
-  /// Set to true (from a signal handler, say) to stop after the pass in flight. May be null.
+  /// Set to true (from a signal handler, say) to stop at the next tile. May be null.
   const std::atomic<bool>* stop = nullptr;
   /// Adaptive sampling: a pixel stops taking samples once its Film::relativeError falls below this (> 0).
   /// Nothing: every pixel takes every sample. See render().
@@ -91,8 +91,12 @@ struct RenderResult {
   int spp = 0;                  ///< Samples every pixel received.
   double seconds = 0;           ///< Wall-clock time of the render loop.
   std::uint64_t rays = 0;       ///< Rays traced (Scene::intersect and Scene::occluded calls).
+  std::uint64_t cameraRays = 0; ///< Camera rays made: one per pixel sample taken (traced or not).
   std::uint64_t badSamples = 0; ///< Samples that were NaN, infinite or negative: replaced by 0 and counted.
   bool interrupted = false;     ///< Stopped early through RenderSettings::stop.
+  /// Stopped in the middle of a batch of samples: the share of its tiles that took it, in [0, 1) (their pixels
+  /// hold more samples than spp); 0 when every batch was whole.
+  double partialPass = 0;
   double meanSpp = 0;           ///< Mean samples per pixel (equal to spp unless sampling was adaptive).
   std::vector<SampleRange> samples{}; ///< The sample indices taken (RenderSettings::share), coalesced.
 };
@@ -118,7 +122,7 @@ inline constexpr double kAdaptiveMeanFloor = 1.0 / 256.0;
 /// Sample s of pixel (x, y) draws its random numbers from Sampler(seed, x, y, s) and is added to the film in
 /// the order of s, so the image is bit-identical for any thread count (and any batching). With `seconds`,
 /// batches continue until the budget is spent (at least one sample), each cut to what is left of it; `stop`
-/// is looked at between batches. Every pixel has the same number of samples, unless `settings.adaptive` is set:
+/// is looked at between tiles, so that even one pass of a large image stops soon (RenderResult::partialPass). Every pixel has the same number of samples, unless `settings.adaptive` is set:
 /// then, at kAdaptiveMinSamples samples and at fixed counts after (multiples of 16), each pixel whose
 /// Film::relativeError(kAdaptiveMeanFloor) is below the threshold, and whose eight neighbours' is too, stops
 /// taking samples (batches end at these points, so which pixels go on depends only on the seed). Sample

@@ -25,6 +25,25 @@
 
 namespace raylife {
 
+std::string describeReads(unsigned uses)
+{
+  std::vector<std::string> parts{"the camera"};
+  const std::pair<unsigned, const char*> features[] = {
+      {kUsesSpheres, "spheres and meshes"}, {kUsesColors, "material colours"}, {kUsesPointLights, "point lights"},
+      {kUsesAmbient, "the ambient term"},   {kUsesBackground, "the background"}, {kUsesEmission, "emission"},
+      {kUsesMirror, "mirrors"},             {kUsesGlass, "glass"},              {kUsesGlossy, "glossy materials"}};
+  for (const auto& [flag, what] : features)
+    if (uses & flag)
+      parts.push_back(what);
+  std::string out;
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    out += (i == 0 ? "" : (i + 1 == parts.size() ? " and " : ", ")) + parts[i];
+  const unsigned everyKind = kUsesMirror | kUsesGlass | kUsesGlossy;
+  if ((uses & kUsesSpheres) && (uses & kUsesColors) && (uses & everyKind) != everyKind)
+    out += " (the other kinds of material are shaded as diffuse)";
+  return out;
+}
+
 std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven)
 {
   std::vector<std::string> parts;
@@ -91,12 +110,27 @@ std::optional<double> applyPlanOptions(const std::string& name, const Scene& sce
 
 std::string sceneDirectory() { return RAYLIFE_SCENE_DIR; }
 
+std::pair<std::int64_t, std::int64_t> imageSize(int sceneWidth, int sceneHeight, int width, int height)
+{
+  // One side given: the other keeps the scene's aspect ratio, rounded to the nearest pixel, at least one.
+  auto scaled = [](std::int64_t given, std::int64_t num, std::int64_t den) {
+    return std::max<std::int64_t>(1, (given * num * 2 + den) / (2 * den));
+  };
+  if (width && height)
+    return {width, height};
+  if (width)
+    return {width, scaled(width, sceneHeight, sceneWidth)};
+  if (height)
+    return {scaled(height, sceneWidth, sceneHeight), height};
+  return {sceneWidth, sceneHeight};
+}
+
 namespace {
 
-// Ctrl-C (or SIGTERM) once: finish the pass in flight, write what there is, exit 130. Twice: stop at once and
+// Ctrl-C (or SIGTERM) once: stop at the next tile, write what there is, exit 130. Twice: stop at once and
 // write nothing. The handler touches only lock-free atomics and _exit, which are async-signal-safe.
 std::atomic<int> gSignals{0};            // SIGINT and SIGTERM received since the handlers were installed
-std::atomic<bool> gStopRequested{false}; // the render loop stops after the pass in flight
+std::atomic<bool> gStopRequested{false}; // the render loop stops at the next tile
 std::atomic<bool> gWriting{false};       // the images are being written: a second signal cancels the write
 std::atomic<bool> gCancelWrite{false};   // writeFilesAtomically removes its temporary files and gives up
 static_assert(std::atomic<int>::is_always_lock_free && std::atomic<bool>::is_always_lock_free,
@@ -182,35 +216,44 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
 {
+  return runChapter(argc, argv, chapter, OptionsTraceFactory([&makeTrace](const Scene& scene, const ChapterOptions&) {
+                      return makeTrace(scene);
+                    }));
+}
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace)
+{
   const std::string name = chapter.binary;
   // One process, or the ranks of an MPI job: every rank goes through the same steps, only rank 0 speaks and writes.
   Ranks ranks(argc, argv, &gSignals);
   RenderOptions options;
   try {
-    options = parseCommandLine(argc, argv);
+    options = parseCommandLine(argc, argv, chapter.options);
   } catch (const UsageError& e) {
     std::cerr << name << ": " << e.what() << "\n" << "usage: " << name << " [SCENE.json] [options]; see --help\n";
     return ranks.finish(2);
   }
   const std::string defaultScene = sceneDirectory() + "/" + chapter.defaultScene;
   if (options.help) {
-    std::cout << usageText(name, defaultScene);
+    std::cout << usageText({name, defaultScene, chapter.defaultSpp, chapter.adaptiveSampling,
+                            describeReads(chapter.uses), chapter.options});
     return ranks.finish(0);
   }
 
   try {
     // Load and check everything before any work: scene, size, outputs.
     const std::string scenePath = options.scenePath.empty() ? defaultScene : options.scenePath;
-    const Scene scene = loadScene(scenePath);
+    // A size on the command line replaces the scene's (even one too large to render).
+    const Scene scene = loadScene(scenePath, options.width || options.height);
     for (const std::string& w : scene.warnings)
       std::cerr << name << ": warning: " << w << "\n";
-    const int width = options.width ? options.width : scene.camera.width;
-    const int height = options.height ? options.height : scene.camera.height;
-    if (std::int64_t(width) * height > kMaxPixels) {
-      std::cerr << name << ": --width/--height: an image of " << width << "x" << height << " pixels is larger than the "
+    const auto [sizeX, sizeY] = imageSize(scene.camera.width, scene.camera.height, options.width, options.height);
+    if (sizeX > kMaxPixels || sizeY > kMaxPixels || sizeX * sizeY > kMaxPixels) {
+      std::cerr << name << ": --width/--height: an image of " << sizeX << "x" << sizeY << " pixels is larger than the "
                 << kMaxPixels << " pixels raylife allows\n";
       return ranks.finish(2);
     }
+    const int width = int(sizeX), height = int(sizeY);
     std::vector<std::string> outputs = options.outputs;
     if (outputs.empty()) {
       if (ranks.root())
@@ -238,9 +281,17 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     settings.threads = options.threads;
     settings.maxDepth = options.maxDepth ? *options.maxDepth : chapter.defaultMaxDepth;
     settings.pixelSampling = chapter.pixelSampling;
+    // A chapter that sends one ray through each pixel's centre would trace the very same ray for every sample:
+    // more samples (--spp N > 1, --time) spread over the pixel instead, which anti-aliases its edges.
+    const bool spread = chapter.pixelSampling == PixelSampling::Centre && settings.spp.value_or(2) > 1;
+    if (spread)
+      settings.pixelSampling = PixelSampling::Jittered;
     settings.progress = !options.quiet && ::isatty(STDERR_FILENO);
     settings.stop = &gStopRequested;
     settings.adaptive = applyPlanOptions(name, scene, chapter, options); // --verbose, --adaptive
+    if (spread && options.verbose)
+      std::cerr << name << ": plan: " << (settings.spp ? "--spp " + std::to_string(*settings.spp) : "--time")
+                << " -> samples spread over each pixel (anti-aliasing; 1 spp is a ray through its centre)\n";
     if (options.samples)
       settings.share.range = SampleRange{options.samples->first, options.samples->second};
     if (settings.adaptive && ranks.size() > 1)
@@ -268,10 +319,10 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     if (const int failed = ranks.checkpoint(0, filmHeader.sceneHash, hashBytes(settingsKey)))
       return failed;
 
-    // Render, with Ctrl-C and SIGTERM turned into "stop after this pass" (until the images are written).
+    // Render, with Ctrl-C and SIGTERM turned into "stop at the next tile" (until the images are written).
     const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
-    const TraceFunction trace = makeTrace(scene);
+    const TraceFunction trace = makeTrace(scene, options.chapter);
     RenderResult result = ranks.render(scene, camera, settings, trace);
     std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
     if (chapter.besideTrace) {
@@ -281,9 +332,21 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
       same.seconds.reset();
       beside = ranks.render(scene, camera, same, chapter.besideTrace);
       result.rays += beside->rays;
+      result.cameraRays += beside->cameraRays;
       result.seconds += beside->seconds;
       result.badSamples += beside->badSamples;
       result.interrupted = result.interrupted || beside->interrupted;
+      result.partialPass = std::max(result.partialPass, beside->partialPass);
+    }
+    // A pass cut short leaves some pixels with more samples than the others: fine for an image, but a partial film
+    // must hold whole passes (its header lists the sample indices every pixel holds).
+    const bool cut = result.interrupted && (result.partialPass > 0 || result.spp == 0);
+    if (cut && std::any_of(outputs.begin(), outputs.end(),
+                           [](const std::string& p) { return fileExtension(p) == ".film"; })) {
+      if (ranks.root())
+        std::cerr << name << ": interrupted in the middle of a pass: a .film holds whole passes only; nothing was "
+                     "written\n";
+      return ranks.finish(130);
     }
 
     // Write every image, all or nothing (rank 0 only: it holds the whole film).
@@ -291,9 +354,11 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
       return ranks.finish(result.interrupted ? 130 : 0);
     std::vector<std::pair<std::string, std::vector<unsigned char>>> files;
     const Film film = beside ? sideBySide(result.film, beside->film) : std::move(result.film);
-    const Image mean = film.mean();
+    Image mean = film.mean();
+    if (chapter.annotate)
+      chapter.annotate(mean);
     for (const std::string& path : outputs) {
-      if (path.ends_with(".film")) {
+      if (fileExtension(path) == ".film") {
         filmHeader.samples = result.samples;
         filmHeader.rays = result.rays;
         filmHeader.badSamples = result.badSamples;
@@ -313,7 +378,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
            << (settings.threads > 0 ? settings.threads : omp_get_max_threads())
            << ", \"interrupted\": " << (result.interrupted ? "true" : "false")
            << ", \"mean_spp\": " << result.meanSpp << ", \"adaptive\": " << (settings.adaptive ? "true" : "false")
-           << ", \"ranks\": " << ranks.size()
+           << ", \"ranks\": " << ranks.size() << ", \"camera_rays\": " << result.cameraRays
            << "}\n";
       const std::string text = json.str();
       files.emplace_back(options.statsPath, std::vector<unsigned char>(text.begin(), text.end()));
@@ -329,9 +394,14 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
 
     if (!options.quiet) {
       char line[256];
-      const double mrays = result.seconds > 0 ? double(result.rays) / result.seconds / 1e6 : 0.0;
-      std::snprintf(line, sizeof line, "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s", name.c_str(), mean.width,
-                    height, result.spp, result.seconds, formatCount(result.rays).c_str(), mrays);
+      // A chapter that traces no ray (chapter 1 only makes them) counts the camera rays it made.
+      const bool traced = result.rays > 0;
+      const std::uint64_t rays = traced ? result.rays : result.cameraRays;
+      const double mrays = result.seconds > 0 ? double(rays) / result.seconds / 1e6 : 0.0;
+      std::snprintf(line, sizeof line,
+                    traced ? "%s: %dx%d, %d spp, %.2f s, %s rays, %.2f Mrays/s"
+                           : "%s: %dx%d, %d spp, %.2f s, %s camera rays made (none traced), %.2f M/s",
+                    name.c_str(), mean.width, height, result.spp, result.seconds, formatCount(rays).c_str(), mrays);
       std::cerr << line;
       if (options.samples)
         std::cerr << " (samples " << describeRanges(result.samples) << " of " << *settings.spp << ")";
@@ -344,7 +414,10 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
         std::cerr << " (adaptive: at most " << result.spp << ", mean " << result.meanSpp << " spp)";
       if (result.badSamples)
         std::cerr << ", " << result.badSamples << " bad samples set to 0";
-      if (result.interrupted)
+      if (result.interrupted && cut)
+        std::cerr << " (interrupted after " << result.spp << " spp and " << int(result.partialPass * 100)
+                  << "% of the next pass)";
+      else if (result.interrupted)
         std::cerr << " (interrupted after " << result.spp << " spp)";
       std::cerr << " -> " << outputs[0];
       for (std::size_t i = 1; i < outputs.size(); ++i)

@@ -10,6 +10,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace raylife {
 
@@ -18,16 +19,29 @@ struct ChapterInfo {
   std::string binary;         ///< e.g. "step04_shadows"; names the default output out/BINARY.png.
   std::string defaultScene;   ///< File name under scenes/, e.g. "spheres.json".
   unsigned uses = 0;          ///< Feature flags.
-  PixelSampling pixelSampling = PixelSampling::Centre; ///< Where samples fall in a pixel.
+  /// Where samples fall in a pixel. Centre (one ray through each pixel's centre) holds at one sample per pixel;
+  /// with more (--spp N > 1, --time) the runner spreads them (Jittered), so that they are not the same ray.
+  PixelSampling pixelSampling = PixelSampling::Centre;
   int defaultSpp = 1;         ///< Samples per pixel when neither --spp nor --time is given.
   int defaultMaxDepth = -1;   ///< --max-depth default; −1: unlimited.
   /// Optional: a second estimator whose image the runner puts to the right of the first, rendered with the same
   /// camera, seed and samples per pixel, so the output is twice as wide (chapter 9 shows the work each pixel cost
   /// beside the rendered image). Empty: one image.
   TraceFunction besideTrace = {};
+  /// Optional: draws on the rendered image before it is written as PNG, PFM or EXR (not on a .film or the
+  /// variance), e.g. chapter 9's colour scale. Must depend only on the image's size, so that images stay
+  /// reproducible. Empty: nothing drawn.
+  std::function<void(Image& image)> annotate = {};
   /// True for the Monte Carlo chapters (6 to 8), which honour --adaptive; the others say they ignore it.
   bool adaptiveSampling = false;
+  /// The chapter's own options beside the shared ones (options.h): the runner parses and checks them, lists them
+  /// in --help, and hands their values to an OptionsTraceFactory.
+  std::vector<ChapterOption> options = {};
 };
+
+/// What of a scene a chapter that reads `uses` (Feature flags) takes into account, as one phrase ("the camera,
+/// spheres and meshes, material colours, ..."): for --help and the docs' table of what each chapter reads.
+std::string describeReads(unsigned uses);
 
 /// What in `scene` a chapter that reads only `uses` ignores, as one phrase ("2 point lights, ambient"), or "".
 std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven);
@@ -35,10 +49,21 @@ std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGive
 /// The scenes/ folder of the source tree (compiled in), where default scenes live.
 std::string sceneDirectory();
 
+/// The size of the image to render, in pixels: --width and --height where given (0: not given); with only one of
+/// them, the other keeps the scene's aspect ratio (rounded, at least 1); with neither, the scene's size.
+/// @param sceneWidth The scene's width, ≥ 1.
+/// @param sceneHeight The scene's height, ≥ 1.
+/// @param width --width, or 0.
+/// @param height --height, or 0.
+/// @return {width, height}, each ≥ 1; their product may exceed kMaxPixels (the caller refuses it).
+std::pair<std::int64_t, std::int64_t> imageSize(int sceneWidth, int sceneHeight, int width, int height);
+
 /// Makes a chapter's trace function for a loaded scene. runChapter calls it once, after the scene is loaded and
 /// before the render, so that a chapter can build what depends only on the scene (chapter 7's light sampler) once,
 /// and capture it in the trace function it returns, without global state. The scene outlives the trace function.
 using TraceFactory = std::function<TraceFunction(const Scene& scene)>;
+/// The same for a chapter with options of its own (ChapterInfo::options): it also receives their values.
+using OptionsTraceFactory = std::function<TraceFunction(const Scene& scene, const ChapterOptions& options)>;
 
 /// A chapter's whole main(): parses the command line, loads the scene, renders with `trace`, writes the images
 /// (all or nothing) and prints the summary line. Returns the exit status: 0 done, 1 bad input or failed write,
@@ -53,5 +78,7 @@ std::optional<double> applyPlanOptions(const std::string& name, const Scene& sce
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace);
 /// The same, for a chapter whose trace function is made per scene by `makeTrace` (called once, see TraceFactory).
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace);
+/// The same, for a chapter whose trace function depends on its own options' values (see OptionsTraceFactory).
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace);
 
 } // namespace raylife

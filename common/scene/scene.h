@@ -169,7 +169,10 @@ public:
 /// Reads and validates a scene file (a regular file of at most 64 MiB), and the mesh files it names (relative to
 /// the scene file's folder). @throws SceneError naming the file, the place and the fault; the message is one
 /// printable line.
-Scene loadScene(const std::string& path);
+/// @param path The scene file.
+/// @param sizeGiven True when the image size comes from elsewhere (the command line's --width or --height): the
+/// scene's own width × height may then exceed kMaxPixels (each must still lie in [1, kMaxPixels]).
+Scene loadScene(const std::string& path, bool sizeGiven = false);
 
 /// Parses and validates scene text; `fileName` is used in messages and to find mesh files (relative to its
 /// folder). @throws SceneError.

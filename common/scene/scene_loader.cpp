@@ -2,6 +2,7 @@
 // once, as "FILE:LINE:COLUMN: /json/path: what is wrong", and nothing is half-loaded.
 #include "scene/scene.h"
 
+#include "core/edit_distance.h"
 #include "scene/mesh_file.h"
 
 #include <nlohmann/json.hpp>
@@ -242,23 +243,6 @@ std::string printable(std::string_view text)
   return out;
 }
 
-std::size_t editDistance(std::string_view a, std::string_view b)
-{
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j)
-    row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
-}
-
 // " (did you mean 'x'?)" for the nearest candidate within a small edit distance, else "".
 std::string suggestion(std::string_view word, const std::vector<std::string>& candidates)
 {
@@ -481,11 +465,16 @@ public:
   int wholeNumber(const Json& j, const Path& path, std::int64_t lo, std::int64_t hi) const
   {
     if (j.is_number_float()) {
-      // A whole number beyond 64 bits arrives as a double: say it is out of range rather than not whole.
+      // A whole number beyond 64 bits arrives as a double: say it is out of range rather than not whole. One in
+      // range written with a point or an exponent (320.0, 1e3) is asked for without.
       const double v = j.get<double>();
-      if (std::isfinite(v) && v == std::floor(v))
-        fail(path, v > 0 ? "must be at most " + std::to_string(hi) + ", got " + j.dump()
-                         : "must be at least " + std::to_string(lo) + ", got " + j.dump());
+      if (std::isfinite(v) && v == std::floor(v)) {
+        if (v > double(hi))
+          fail(path, "must be at most " + std::to_string(hi) + ", got " + j.dump());
+        if (v < double(lo))
+          fail(path, "must be at least " + std::to_string(lo) + ", got " + j.dump());
+        fail(path, "expected a whole number written without a decimal point or exponent, got " + j.dump());
+      }
     }
     if (!j.is_number_integer())
       fail(path, "expected a whole number, got " + describe(j));
@@ -544,7 +533,7 @@ private:
 
 using Path = Reader::Path;
 
-void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& cam)
+void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& cam, bool sizeGiven)
 {
   r.object(j, path);
   r.onlyKeys(j, path, {"eye", "focal", "up", "vfov", "width", "height"});
@@ -561,7 +550,7 @@ void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& ca
     cam.width = r.wholeNumber(j["width"], path / "width", 1, kMaxPixels);
   if (j.contains("height"))
     cam.height = r.wholeNumber(j["height"], path / "height", 1, kMaxPixels);
-  if (std::int64_t(cam.width) * cam.height > kMaxPixels)
+  if (std::int64_t(cam.width) * cam.height > kMaxPixels && !sizeGiven)
     r.fail(path / "width", "an image of " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
                                " pixels is larger than the " + std::to_string(kMaxPixels) + " pixels raylife allows");
   auto basis = makeCameraBasis(cam.eye, cam.focal, cam.up);
@@ -831,7 +820,7 @@ namespace {
 // parseScene without the accelerator. The callers build it once the JSON tree is gone (and loadScene once the text is
 // too): with 100,000 spheres the two take about 28 MB, more than the scene and its tree, and the tree's build has
 // its own scratch on top.
-Scene readScene(std::string_view text, const std::string& fileName)
+Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiven = false)
 {
   auto failAt = [&](std::size_t offset, const std::string& what) {
     throw SceneError(printable(fileName + ":" + lineColumn(text, offset) + ": " + what));
@@ -894,7 +883,7 @@ Scene readScene(std::string_view text, const std::string& fileName)
   r.object(root, top);
   r.onlyKeys(root, top, {"camera", "background", "ambient", "materials", "spheres", "meshes", "lights"});
 
-  readCamera(r, r.required(root, top, "camera"), top / "camera", scene.camera);
+  readCamera(r, r.required(root, top, "camera"), top / "camera", scene.camera, sizeGiven);
   if (root.contains("background"))
     scene.background = r.color(root["background"], top / "background", kInfinity, "background radiance");
   if (root.contains("ambient"))
@@ -1000,7 +989,7 @@ Scene parseScene(std::string_view text, const std::string& fileName)
   return scene;
 }
 
-Scene loadScene(const std::string& path)
+Scene loadScene(const std::string& path, bool sizeGiven)
 {
   // Say plainly what is wrong with a path that is not a readable file, before JSON has a chance to.
   namespace fs = std::filesystem;
@@ -1022,7 +1011,7 @@ Scene loadScene(const std::string& path)
   }
   if (in.bad())
     throw SceneError(printable(path + ": cannot read the scene file: " + std::strerror(errno)));
-  Scene scene = readScene(text, path);
+  Scene scene = readScene(text, path, sizeGiven);
   std::string().swap(text); // the text's memory back before the tree's build needs its own
   scene.buildAccelerator();
   return scene;

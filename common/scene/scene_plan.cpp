@@ -5,6 +5,7 @@ namespace raylife {
 ScenePlan planScene(const Scene& scene, unsigned uses)
 {
   ScenePlan plan;
+  plan.uses = uses;
   plan.spheres = scene.spheres.size();
   plan.bvh = scene.usesAccelerator();
   plan.lanes = scene.usesLanes();
@@ -25,25 +26,40 @@ std::vector<std::string> describePlan(const ScenePlan& plan)
   auto count = [](std::size_t n, const char* one, const char* many) {
     return std::to_string(n) + " " + (n == 1 ? one : many);
   };
-  const std::string bvhFrom = std::to_string(kFlatListMaxPrimitives + 1);
+  const unsigned uses = plan.uses;
   std::vector<std::string> lines;
-  lines.push_back("plan: " + count(plan.spheres, "sphere", "spheres") +
-                  (plan.triangles > 0 ? ", " + count(plan.triangles, "triangle", "triangles") : std::string()) +
+  if (!(uses & kUsesSpheres))
+    return {"plan: nothing is intersected -> no geometry, no lights"};
+  const std::string primitives = count(plan.spheres, "sphere", "spheres") +
+                                 (plan.triangles > 0 ? ", " + count(plan.triangles, "triangle", "triangles") : "");
+  lines.push_back("plan: " + primitives +
                   (plan.bvh ? " -> BVH (flat list up to " + std::to_string(kFlatListMaxPrimitives) + ")"
-                            : std::string(" -> flat list") + (plan.lanes ? ", four spheres at a time" : "") +
-                                  " (BVH from " + bvhFrom + ")"));
-  const std::string lights =
-      count(plan.emitters, "emitter", "emitters") + ", " + count(plan.pointLights, "point light", "point lights");
-  lines.push_back("plan: " + lights +
-                  (plan.lightSampling()
-                       ? " -> light sampling of " + count(plan.emitters + plan.pointLights, "light", "lights")
-                       : " -> no light sampling (BSDF sampling only)"));
-  lines.push_back(plan.shadowRays() ? "plan: " + count(plan.pointLights, "point light", "point lights") +
-                                          " -> shadow rays"
-                                    : "plan: no point lights -> no shadow rays to point lights");
-  lines.push_back(plan.glass ? "plan: glass -> refraction" : "plan: no glass -> no refraction");
-  lines.push_back(plan.backgroundBlack ? "plan: background black -> no environment lookups"
-                                       : "plan: background not black -> environment lookups on escape");
+                            : std::string(" -> flat list: each ray tests every one") +
+                                  (plan.lanes ? ", four spheres at a time" : "") + " (more than " +
+                                  std::to_string(kFlatListMaxPrimitives) + " go in a BVH, chapter 9)"));
+  if (uses & kSamplesLights) {
+    const std::string lights =
+        count(plan.emitters, "emitter", "emitters") + ", " + count(plan.pointLights, "point light", "point lights");
+    lines.push_back("plan: " + lights +
+                    (plan.lightSampling()
+                         ? " -> light sampling of " + count(plan.emitters + plan.pointLights, "light", "lights")
+                         : " -> no light sampling (BSDF sampling only)"));
+  } else if (uses & kShadowRays) {
+    lines.push_back(plan.shadowRays() ? "plan: " + count(plan.pointLights, "point light", "point lights") +
+                                            " -> a shadow ray to each from every hit that faces it"
+                                      : "plan: no point lights -> no shadow rays");
+  } else if (uses & kUsesPointLights) {
+    lines.push_back("plan: " + count(plan.pointLights, "point light", "point lights") +
+                    " -> each taken as seen from every point (no shadow rays until chapter 4)");
+  } else if ((uses & kUsesEmission) && (uses & kUsesMaxDepth)) { // (a path tracer; chapter 10 only colours them)
+    lines.push_back("plan: " + count(plan.emitters, "emitter", "emitters") +
+                    " -> found only by paths that hit them (no light sampling until chapter 7)");
+  }
+  if (uses & kUsesGlass)
+    lines.push_back(plan.glass ? "plan: glass -> refraction" : "plan: no glass -> no refraction");
+  if (uses & kUsesMaxDepth) // (a chapter that follows rays on; the others return the background on a miss)
+    lines.push_back(plan.backgroundBlack ? "plan: background black -> no environment lookups"
+                                         : "plan: background not black -> environment lookups on escape");
   return lines;
 }
 

@@ -23,6 +23,8 @@ enum Feature : unsigned {
   kUsesGlass = 1u << 7,         ///< Treats glass materials as glass.
   kUsesGlossy = 1u << 8,        ///< Treats glossy materials as glossy.
   kUsesMaxDepth = 1u << 9,      ///< Honours --max-depth.
+  kShadowRays = 1u << 10,       ///< Traces a shadow ray from a hit to each point light (chapters 4, 5, 9).
+  kSamplesLights = 1u << 11,    ///< Samples a light at each hit: next-event estimation (chapters 7 on).
 };
 
 /// What a scene needs, computed once from the scene and a chapter's feature flags (Feature, above).
@@ -38,6 +40,7 @@ struct ScenePlan {
                                 ///< reads emission).
   bool glass = false;           ///< Some sphere or triangle is glass and the chapter treats glass as glass.
   bool backgroundBlack = true;  ///< The background is black, or the chapter does not read it.
+  unsigned uses = 0;            ///< The chapter's Feature flags: describePlan speaks only of what it does.
   /// Light sampling has something to sample: at least one emitter or point light. Without it chapters 7 and 8
   /// do BSDF sampling only (a light sampler with no light returns nothing, so this is exact).
   bool lightSampling() const { return emitters + pointLights > 0; }
@@ -48,7 +51,8 @@ struct ScenePlan {
 /// The plan for `scene` as a chapter reading `uses` (Feature flags) renders it.
 ScenePlan planScene(const Scene& scene, unsigned uses);
 
-/// The plan as lines of text, one per decision, e.g. "plan: 9 spheres -> flat list (BVH from 10)".
+/// The plan as lines of text, one per decision the chapter (ScenePlan::uses) makes, in its words, e.g.
+/// "plan: 5 spheres -> flat list: each ray tests every one (more than 9 go in a BVH, chapter 9)".
 std::vector<std::string> describePlan(const ScenePlan& plan);
 
 } // namespace raylife

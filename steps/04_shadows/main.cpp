@@ -38,6 +38,7 @@ int main(int argc, char** argv)
 {
   const ChapterInfo chapter{.binary = "step04_shadows",
                             .defaultScene = "spheres.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground};
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground |
+                                    kShadowRays};
   return runChapter(argc, argv, chapter, trace);
 }

@@ -89,7 +89,7 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = "step05_whitted",
                             .defaultScene = "whitted.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground |
-                                    kUsesEmission | kUsesMirror | kUsesGlass | kUsesMaxDepth,
+                                    kUsesEmission | kUsesMirror | kUsesGlass | kUsesMaxDepth | kShadowRays,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 16,
                             .defaultMaxDepth = 10};

@@ -96,7 +96,7 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = "step07_light_sampling",
                             .defaultScene = "cornell.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
-                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth,
+                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
                             .defaultMaxDepth = -1,

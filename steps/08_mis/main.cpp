@@ -23,9 +23,6 @@
 #include "core/sampling.h"
 #include "scene/scene_plan.h"
 
-#include <cstring>
-#include <iostream>
-#include <vector>
 
 using namespace raylife;
 
@@ -122,36 +119,26 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = "step08_mis",
                             .defaultScene = "mis.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
-                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth,
+                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
                             .defaultMaxDepth = -1,
-                            .adaptiveSampling = true};
+                            .adaptiveSampling = true,
+                            .options = {{.name = "--heuristic",
+                                         .kind = OptionKind::Choice,
+                                         .help = "how MIS weights the two strategies",
+                                         .defaultValue = "power",
+                                         .choices = {"power", "balance"}}}};
   /// [chapter]
-  // This chapter's own option, --heuristic power|balance (default power), taken out before the shared parser.
-  Heuristic heuristic = Heuristic::Power;
-  std::vector<char*> args;
-  for (int i = 0; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--heuristic") == 0 && i + 1 < argc) {
-      const std::string value = argv[++i];
-      if (value != "power" && value != "balance") {
-        std::cerr << "step08_mis: --heuristic must be power or balance, not " << value << "\n";
-        return 2;
-      }
-      heuristic = value == "power" ? Heuristic::Power : Heuristic::Balance;
-      continue;
-    }
-    if (std::strcmp(argv[i], "--help") == 0)
-      std::cout << "step08_mis also takes --heuristic power|balance: the MIS heuristic (default power).\n";
-    args.push_back(argv[i]);
-  }
   // The light sampler is built once per scene, before the render, and shared (read-only) by every thread.
   // The plan (scene_plan.h): with no emitter and no point light there is nothing to sample, so the trace does BSDF
   // sampling only (exact: the image is the same, bit for bit).
-  return runChapter(int(args.size()), args.data(), chapter, [heuristic, &chapter](const Scene& scene) -> TraceFunction {
+  auto makeTrace = [&chapter](const Scene& scene, const ChapterOptions& options) -> TraceFunction {
+    const Heuristic heuristic = options.choice("--heuristic") == "power" ? Heuristic::Power : Heuristic::Balance;
     return [heuristic, lights = LightSampler(scene), sampleLights = planScene(scene, chapter.uses).lightSampling()](
                const Scene& s, const Ray& ray, Sampler& sampler, int maxDepth) {
       return trace(lights, sampleLights, heuristic, s, ray, sampler, maxDepth);
     };
-  });
+  };
+  return runChapter(argc, argv, chapter, makeTrace);
 }

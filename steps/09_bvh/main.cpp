@@ -13,7 +13,7 @@
 //
 // This chapter's picture is the work itself: on the left the scene as chapter 4 shades it, on the right each
 // pixel's work, the boxes and spheres its camera ray and shadow rays tested, on a logarithmic colour scale
-// (common/render/heat_map.h): black is one test, pale yellow four thousand.
+// (common/render/heat_map.h): black is one test, pale yellow four thousand, as the scale drawn under it says.
 #include "render/heat_map.h"
 #include "render/runner.h"
 #include "shading/shading.h"
@@ -63,10 +63,13 @@ Color work(const Scene& scene, const Ray& ray, Sampler& /*sampler*/)
 int main(int argc, char** argv)
 {
   const ChapterInfo chapter{.binary = "step09_bvh",
-                            .defaultScene = "random_spheres.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground,
+                            .defaultScene = "random_diffuse.json",
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground |
+                                    kShadowRays,
                             .besideTrace = [](const Scene& s, const Ray& r, Sampler& sampler, int) {
                               return work(s, r, sampler);
-                            }};
+                            },
+                            // The heat map's colour scale, under the right image.
+                            .annotate = [](Image& image) { drawHeatLegend(image, image.width / 2, image.width); }};
   return runChapter(argc, argv, chapter, shade);
 }

@@ -58,7 +58,7 @@ TEST_CASE("relative MSE is the mean of (x - ref)^2 / (ref^2 + 0.01)")
   CHECK(m.relativeMse == Approx(expected).epsilon(1e-6));
   CHECK(m.rmse == Approx(std::sqrt((0.01 + 1.0) / 6.0)).epsilon(1e-6));
   CHECK(m.referenceRelativeMse == Approx((0.01 / 0.01 + 0.26 / 0.26) / 6.0).epsilon(1e-6));
-  // The same metric as the compare tool's (DESIGN.md §7 defines it once).
+  // The same metric as the compare tool's (common/render/image_compare.h defines it once).
   CHECK(m.relativeMse == Approx(compareImages(x, ref, 0).relativeMse).epsilon(1e-12));
   CHECK(measureError(ref, ref, var).relativeMse == 0);
 }

@@ -1,6 +1,6 @@
 /// @file bench.h
 /// @brief The benchmark's own logic, apart from running programs: the error metric, the slope fit, the reference
-/// cache key, the CSV rows, the render statistics, the summary table and the plot script (DESIGN.md §7).
+/// cache key, the CSV rows, the render statistics, the summary table and the plot script (docs/benchmarks.md).
 ///
 /// Everything here is a pure function of its inputs, so tests/bench checks it without rendering anything.
 #pragma once
@@ -19,7 +19,7 @@ namespace raylife::bench {
 
 /// The error of one render against a reference, over every pixel and channel.
 struct ErrorMetrics {
-  /// Mean of (x − ref)² / (ref² + 0.01): the relative MSE of DESIGN.md §7 (the same as compareImages()).
+  /// Mean of (x − ref)² / (ref² + 0.01): the relative MSE of docs/benchmarks.md (the same as compareImages()).
   double relativeMse = 0;
   /// √(mean of (x − ref)²), in units of radiance.
   double rmse = 0;
@@ -136,7 +136,7 @@ struct Row {
   std::uint64_t rays = 0; ///< Rays traced.
   std::uint64_t badSamples = 0; ///< Samples replaced by 0.
   ErrorMetrics error;     ///< Against the scene's reference.
-  /// 1 / (seconds × relative MSE): the efficiency of DESIGN.md §7 (0 when either factor is 0).
+  /// 1 / (seconds × relative MSE): the efficiency of docs/benchmarks.md (0 when either factor is 0).
   double efficiency() const;
 };
 

@@ -1,4 +1,4 @@
-// raylife_bench: run time against error (DESIGN.md §7, issue 8).
+// raylife_bench: run time against error (docs/benchmarks.md, issue 8).
 //
 // For each scene it makes sure a converged, checked reference exists (rendering what the cache lacks), then runs
 // every Monte Carlo chapter at a ladder of spp budgets and of equal wall-clock budgets, several seeds each, on 1

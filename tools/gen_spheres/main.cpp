@@ -2,7 +2,7 @@
 // Weekend": a huge ground sphere, three big spheres (glass, diffuse, metal), and small spheres of mixed materials
 // scattered over a grid of unit cells around them. The same N and SEED always give the same file.
 //
-// usage: gen_spheres N SEED > scene.json      (N ≥ 1 spheres in all, the ground included)
+// usage: gen_spheres N SEED [--diffuse] > scene.json      (N ≥ 1 spheres in all, the ground included)
 //
 // scenes/random_spheres.json is `gen_spheres 500 1`; the scaling runs of chapter 9 use N = 10 … 100,000.
 #include "core/rng.h"
@@ -56,8 +56,12 @@ std::string color(double r, double g, double b)
 int main(int argc, char** argv)
 {
   long long n = 0, seed = 0;
-  if (argc != 3 || !parseCount(argv[1], 1, 10000000, n) || !parseCount(argv[2], 0, 1LL << 62, seed)) {
-    std::fprintf(stderr, "usage: gen_spheres N SEED > scene.json   (1 <= N <= 10000000 spheres, SEED >= 0)\n");
+  // --diffuse: every material diffuse (the glass, the mirror and the metals keep their colours), the spheres the
+  // same: a scene that chapters of local shading (4, 9) render whole.
+  const bool diffuse = argc == 4 && std::string(argv[3]) == "--diffuse";
+  if ((argc != 3 && !diffuse) || !parseCount(argv[1], 1, 10000000, n) || !parseCount(argv[2], 0, 1LL << 62, seed)) {
+    std::fprintf(stderr, "usage: gen_spheres N SEED [--diffuse] > scene.json   (1 <= N <= 10000000 spheres, "
+                         "SEED >= 0)\n");
     return 2;
   }
   Random random{std::uint64_t(seed)};
@@ -66,9 +70,11 @@ int main(int argc, char** argv)
   // (albedo rand·rand, as in the tutorial), 6 rough metals, 1 mirror, 1 glass. Only the used ones are written.
   std::vector<PaletteEntry> palette;
   palette.push_back({R"({ "type": "diffuse", "color": [0.5, 0.5, 0.5] })"});                  // 0: ground
-  palette.push_back({R"({ "type": "glass", "color": [1, 1, 1], "ior": 1.5 })"});             // 1: glass
+  palette.push_back({diffuse ? R"({ "type": "diffuse", "color": [0.9, 0.9, 0.9] })"
+                             : R"({ "type": "glass", "color": [1, 1, 1], "ior": 1.5 })"});          // 1: glass
   palette.push_back({R"({ "type": "diffuse", "color": [0.4, 0.2, 0.1] })"});                  // 2: brown
-  palette.push_back({R"({ "type": "mirror", "color": [0.7, 0.6, 0.5] })"});                   // 3: mirror
+  palette.push_back({diffuse ? R"({ "type": "diffuse", "color": [0.7, 0.6, 0.5] })"
+                             : R"({ "type": "mirror", "color": [0.7, 0.6, 0.5] })"});               // 3: mirror
   const int firstDiffuse = int(palette.size());
   for (int i = 0; i < 16; ++i)
     palette.push_back({"{ \"type\": \"diffuse\", \"color\": " +
@@ -78,9 +84,9 @@ int main(int argc, char** argv)
   for (int i = 0; i < 6; ++i) {
     char roughness[32];
     std::snprintf(roughness, sizeof roughness, "%.3f", random.uniform(0.02, 0.5));
-    palette.push_back({"{ \"type\": \"glossy\", \"color\": " +
-                       color(random.uniform(0.5, 1), random.uniform(0.5, 1), random.uniform(0.5, 1)) +
-                       ", \"roughness\": " + roughness + " }"});
+    const std::string rgb = color(random.uniform(0.5, 1), random.uniform(0.5, 1), random.uniform(0.5, 1));
+    palette.push_back({diffuse ? "{ \"type\": \"diffuse\", \"color\": " + rgb + " }"
+                               : "{ \"type\": \"glossy\", \"color\": " + rgb + ", \"roughness\": " + roughness + " }"});
   }
 
   // The ground and the three big spheres.
