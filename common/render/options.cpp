@@ -46,7 +46,8 @@ std::string nearestFlag(const std::string& arg)
 {
   const std::string word = arg.substr(0, arg.find('='));
   static const char* const flags[] = {"--help", "--output", "--variance", "--stats", "--width", "--height", "--spp",
-                                      "--time", "--seed", "--threads", "--max-depth", "--quiet", "--samples"};
+                                      "--time", "--seed", "--threads", "--max-depth", "--quiet", "--samples",
+                                      "--verbose", "--adaptive", "--ao-distance"};
   std::string best;
   std::size_t bestDistance = 3;
   for (const char* flag : flags) {
@@ -129,6 +130,8 @@ RenderOptions parseCommandLine(int argc, const char* const* argv)
       o.verbose = true;
     } else if (arg == "--adaptive") {
       o.adaptive = parsePositive(arg, value());
+    } else if (arg == "--ao-distance") {
+      o.aoDistance = parsePositive(arg, value());
     } else if (arg.size() > 1 && arg[0] == '-') {
       const std::string near = nearestFlag(arg);
       throw UsageError("unknown option '" + arg + "'" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
@@ -185,6 +188,8 @@ std::string usageText(const std::string& binary, const std::string& defaultScene
          "  --verbose          print the render's plan (what the scene lets it skip) on standard error\n"
          "  --adaptive E       Monte Carlo chapters (6 to 8): a pixel stops taking samples once the relative\n"
          "                     standard error of its mean is below E (biased a little; see docs/09_bvh.md)\n"
+         "  --ao-distance D    ambient occlusion (chapter 12): only what lies within D scene units occludes\n"
+         "                     (default: unbounded)\n"
          "  --help             this text\n"
          "\n"
          "exit status: 0 done, 1 bad input or a failed write, 2 bad command line, 130 interrupted\n";

@@ -32,6 +32,9 @@ struct RenderOptions {
   /// --adaptive: a pixel stops taking samples once the estimated relative standard error of its mean falls below
   /// this (> 0, e.g. 0.02 for 2 %); honoured by the Monte Carlo chapters (6 to 8) only.
   std::optional<double> adaptive;
+  /// --ao-distance: ambient occlusion counts only what lies closer than this (scene units, > 0); nothing: any
+  /// distance. Honoured by chapter 12 only.
+  std::optional<double> aoDistance;
 };
 
 /// A fault in the command line. what() says which argument and what is wrong.

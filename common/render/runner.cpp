@@ -56,13 +56,21 @@ std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGive
       emissive += m.isEmissive() && !(uses & kUsesEmission);
       asDiffuse += (m.type == MaterialType::Mirror && !(uses & kUsesMirror)) ||
                    (m.type == MaterialType::Glass && !(uses & kUsesGlass)) ||
-                   (m.type == MaterialType::Glossy && !(uses & kUsesGlossy));
+                   (m.type == MaterialType::Glossy && !(uses & kUsesGlossy)) ||
+                   (m.type == MaterialType::Metal && !(uses & kUsesMetal));
     }
     if (emissive)
       parts.push_back("the emission of " + plural(emissive, "material", "materials"));
     if (asDiffuse)
       parts.push_back("the reflection and refraction of " + plural(asDiffuse, "material", "materials") +
                       " (shaded as diffuse)");
+  }
+  if (!(uses & kUsesLens) && scene.camera.aperture > 0)
+    parts.push_back("the camera's aperture (a pinhole here)");
+  if (!(uses & kUsesMotion) && scene.hasMotion()) {
+    const auto moving = std::size_t(
+        std::count_if(scene.spheres.begin(), scene.spheres.end(), [](const Sphere& s) { return s.moving(); }));
+    parts.push_back("the velocity of " + plural(moving, "sphere", "spheres") + " (drawn at time 0)");
   }
   if (maxDepthGiven && !(uses & kUsesMaxDepth))
     parts.push_back("--max-depth (nothing here recurses)");
@@ -78,6 +86,8 @@ std::optional<double> applyPlanOptions(const std::string& name, const Scene& sce
   if (options.verbose)
     for (const std::string& line : describePlan(planScene(scene, chapter.uses)))
       std::cerr << name << ": " << line << "\n";
+  if (options.aoDistance && !chapter.aoDistance && !options.quiet)
+    std::cerr << name << ": ignores --ao-distance (only chapter 12, ambient occlusion, has a distance)\n";
   if (options.adaptive && !chapter.adaptiveSampling) {
     if (!options.quiet)
       std::cerr << name << ": ignores --adaptive (only the Monte Carlo chapters 6 to 8 sample adaptively)\n";
@@ -182,6 +192,12 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
 {
+  return runChapter(argc, argv, chapter,
+                    OptionsTraceFactory([&makeTrace](const Scene& scene, const RenderOptions&) { return makeTrace(scene); }));
+}
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace)
+{
   const std::string name = chapter.binary;
   // One process, or the ranks of an MPI job: every rank goes through the same steps, only rank 0 speaks and writes.
   Ranks ranks(argc, argv, &gSignals);
@@ -238,6 +254,8 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     settings.threads = options.threads;
     settings.maxDepth = options.maxDepth ? *options.maxDepth : chapter.defaultMaxDepth;
     settings.pixelSampling = chapter.pixelSampling;
+    settings.lens = (chapter.uses & kUsesLens) && scene.camera.aperture > 0;
+    settings.motion = (chapter.uses & kUsesMotion) && scene.hasMotion();
     settings.progress = !options.quiet && ::isatty(STDERR_FILENO);
     settings.stop = &gStopRequested;
     settings.adaptive = applyPlanOptions(name, scene, chapter, options); // --verbose, --adaptive
@@ -271,7 +289,7 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     // Render, with Ctrl-C and SIGTERM turned into "stop after this pass" (until the images are written).
     const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
-    const TraceFunction trace = makeTrace(scene);
+    const TraceFunction trace = makeTrace(scene, options);
     RenderResult result = ranks.render(scene, camera, settings, trace);
     std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
     if (chapter.besideTrace) {

@@ -27,6 +27,8 @@ struct ChapterInfo {
   TraceFunction besideTrace = {};
   /// True for the Monte Carlo chapters (6 to 8), which honour --adaptive; the others say they ignore it.
   bool adaptiveSampling = false;
+  /// True for a chapter that honours --ao-distance (ambient occlusion, chapter 12); the others say they ignore it.
+  bool aoDistance = false;
 };
 
 /// What in `scene` a chapter that reads only `uses` ignores, as one phrase ("2 point lights, ambient"), or "".
@@ -39,6 +41,8 @@ std::string sceneDirectory();
 /// before the render, so that a chapter can build what depends only on the scene (chapter 7's light sampler) once,
 /// and capture it in the trace function it returns, without global state. The scene outlives the trace function.
 using TraceFactory = std::function<TraceFunction(const Scene& scene)>;
+/// The same for a chapter whose trace function also depends on the command line (chapter 12's --ao-distance).
+using OptionsTraceFactory = std::function<TraceFunction(const Scene& scene, const RenderOptions& options)>;
 
 /// A chapter's whole main(): parses the command line, loads the scene, renders with `trace`, writes the images
 /// (all or nothing) and prints the summary line. Returns the exit status: 0 done, 1 bad input or failed write,
@@ -53,5 +57,7 @@ std::optional<double> applyPlanOptions(const std::string& name, const Scene& sce
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace);
 /// The same, for a chapter whose trace function is made per scene by `makeTrace` (called once, see TraceFactory).
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace);
+/// The same, for a chapter whose trace function is made per scene and command line (see OptionsTraceFactory).
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace);
 
 } // namespace raylife

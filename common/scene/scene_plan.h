@@ -23,6 +23,9 @@ enum Feature : unsigned {
   kUsesGlass = 1u << 7,         ///< Treats glass materials as glass.
   kUsesGlossy = 1u << 8,        ///< Treats glossy materials as glossy.
   kUsesMaxDepth = 1u << 9,      ///< Honours --max-depth.
+  kUsesLens = 1u << 10,         ///< Honours the camera's aperture (a thin lens; several samples a pixel).
+  kUsesMotion = 1u << 11,       ///< Honours the spheres' velocities (each sample draws a time).
+  kUsesMetal = 1u << 12,        ///< Treats metal materials as metal (GGX).
 };
 
 /// What a scene needs, computed once from the scene and a chapter's feature flags (Feature, above).
