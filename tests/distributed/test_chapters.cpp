@@ -1,0 +1,204 @@
+// Chapters 11 and 12 as students run them (their executables, through run_chapter.h): ambient occlusion against
+// its closed forms, velocity 0 and aperture 0 against the still pinhole render, and both chapters' goldens (a
+// per-pixel z-test against a converged reference, as chapters 7 and 8's: tests/lights/test_lights_render.cpp).
+#include "../analytic/run_chapter.h"
+
+#include "render/image_compare.h"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+using namespace raylife;
+using namespace raylife::test;
+
+namespace {
+
+const std::string kScenes = RAYLIFE_SCENES;
+const std::string kGolden = RAYLIFE_DISTRIBUTED_GOLDEN;
+
+constexpr double kCritical = 3.29;       // two-sided significance 0.001 per channel
+constexpr double kMaxFailedShare = 0.02; // as chapters 7 and 8's goldens
+constexpr double kMaxTotalZ = 4;
+constexpr double kVarianceFloor = 1e-10;
+
+// The share of pixel channels whose |z| exceeds kCritical, and the worst channel's image-mean z.
+struct Verdict {
+  double failedShare = 0;
+  double worstTotalZ = 0;
+  bool passed() const { return failedShare <= kMaxFailedShare && std::abs(worstTotalZ) <= kMaxTotalZ; }
+};
+
+Verdict compare(const Image& a, const Image& varA, const Image& b, const Image& varB, const std::string& what)
+{
+  REQUIRE(a.width == b.width);
+  REQUIRE(a.height == b.height);
+  Verdict v;
+  v.failedShare = zTestImages(a, varA, b, varB, kCritical, kVarianceFloor).failedShare;
+  for (int c = 0; c < 3; ++c) {
+    double diff = 0, var = 0;
+    for (int y = 0; y < a.height; ++y)
+      for (int x = 0; x < a.width; ++x) {
+        diff += double(a.at(x, y, c)) - double(b.at(x, y, c));
+        var += double(varA.at(x, y, c)) + double(varB.at(x, y, c)) + kVarianceFloor;
+      }
+    const double z = diff / std::sqrt(var);
+    if (std::abs(z) > std::abs(v.worstTotalZ))
+      v.worstTotalZ = z;
+  }
+  std::cout << what << ": failed pixel channels " << 100 * v.failedShare << "% (bound " << 100 * kMaxFailedShare
+            << "%), worst channel's image mean off by z = " << v.worstTotalZ << " (bound " << kMaxTotalZ << ")\n";
+  return v;
+}
+
+ChapterRender run(const std::string& binary, const std::string& scene, const std::string& args, const std::string& tag)
+{
+  ChapterRender r = runChapterBinary(binary, scene, args, tag);
+  CHECK(statsValue(r.stats, "bad_samples") == 0);
+  return r;
+}
+
+// Ambient occlusion's image against a constant expectation: every pixel sees the surface whose AO is `expected`.
+// Each sample is 0 or 1, so the image mean's standard error is √(AO(1 − AO)/samples).
+void checkConstantAo(const std::string& scene, const std::string& args, double expected, const std::string& tag)
+{
+  const ChapterRender r = run(RAYLIFE_STEP12, kScenes + "/" + scene, args, tag);
+  const int spp = int(statsValue(r.stats, "spp"));
+  double sum = 0, lo = 1, hi = 0;
+  for (float v : r.mean.pixels) {
+    sum += v;
+    lo = std::min(lo, double(v));
+    hi = std::max(hi, double(v));
+  }
+  const double n = double(r.mean.pixels.size() / 3) * spp;
+  const double mean = sum / double(r.mean.pixels.size());
+  const double stdError = std::sqrt(std::max(expected * (1 - expected), 1e-12) / n);
+  std::cout << tag << ": ambient occlusion " << mean << " (pixels " << lo << " to " << hi << "), expected " << expected
+            << ", z = " << (mean - expected) / stdError << "\n";
+  if (expected == 0 || expected == 1) { // exact: no sample may differ
+    CHECK(lo == expected);
+    CHECK(hi == expected);
+  } else {
+    CHECK(std::abs(mean - expected) < 4 * stdError);
+  }
+}
+
+std::string readBytes(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+} // namespace
+
+// ---- Ambient occlusion: closed forms ----------------------------------------------------------------------------
+
+TEST_CASE("ambient occlusion: an open plane is exactly 1, the inside of a closed sphere exactly 0")
+{
+  checkConstantAo("analytic/ao_plane.json", "--spp 16 --seed 1", 1, "ao plane");
+  checkConstantAo("analytic/inside_sphere.json", "--width 32 --height 24 --spp 16 --seed 2", 0, "ao inside sphere");
+}
+
+TEST_CASE("ambient occlusion: a floor point beside an infinite wall (a huge sphere) is 0.5")
+{
+  checkConstantAo("analytic/ao_wall.json", "--spp 64 --seed 3", 0.5, "ao beside a wall");
+}
+
+TEST_CASE("ambient occlusion: under a plane at height h, --ao-distance D gives (h/D)^2 (and 1 for D <= h)")
+{
+  // A direction at angle θ from the normal meets the plane at distance h/cosθ: it counts as open when h/cosθ ≥ D,
+  // i.e. cosθ ≤ h/D, and cosine-weighted directions have P(cosθ ≤ c) = c². Here h = 1.
+  for (const double D : {1.25, 2.0, 4.0})
+    checkConstantAo("analytic/ao_ceiling.json", "--spp 64 --seed 4 --ao-distance " + std::to_string(D),
+                    (1 / D) * (1 / D), "ao under a plane, D = " + std::to_string(D));
+  checkConstantAo("analytic/ao_ceiling.json", "--spp 16 --seed 5 --ao-distance 0.9", 1, "ao under a plane, D < h");
+  // Unbounded: the plane closes the hemisphere (the huge sphere curves away only within ~5e-3 rad of the horizon,
+  // a cosine-weighted share of ~2e-5).
+  const ChapterRender r = run(RAYLIFE_STEP12, kScenes + "/analytic/ao_ceiling.json", "--spp 64 --seed 6", "ao closed");
+  double sum = 0;
+  for (float v : r.mean.pixels)
+    sum += v;
+  CHECK(sum / double(r.mean.pixels.size()) < 1e-3);
+}
+
+// ---- Nothing changes without a lens or motion ----------------------------------------------------------------
+
+TEST_CASE("velocity 0 and aperture 0 render byte for byte as the scene without them (chapters 6 and 11)")
+{
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("raylife_test_still_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::string text = readBytes(kScenes + "/cornell.json");
+  const std::string plain = (dir / "plain.json").string(), zero = (dir / "zero.json").string();
+  std::ofstream(plain) << text;
+  // The same scene with "aperture": 0 and every sphere given "velocity": [0, 0, 0].
+  std::string withZeros = text;
+  withZeros.replace(withZeros.find("\"vfov\""), 6, "\"aperture\": 0, \"vfov\"");
+  for (std::size_t at = withZeros.find("\"material\""); at != std::string::npos;
+       at = withZeros.find("\"material\"", at + 40))
+    withZeros.replace(at, 10, "\"velocity\": [0, 0, 0], \"material\"");
+  std::ofstream(zero) << withZeros;
+  for (const std::string& binary : {std::string(RAYLIFE_STEP06), std::string(RAYLIFE_STEP11)}) {
+    const std::string a = (dir / "a.pfm").string(), b = (dir / "b.pfm").string();
+    REQUIRE(std::system(("'" + binary + "' '" + plain + "' --quiet --width 32 --height 24 --spp 8 -o '" + a + "'").c_str()) ==
+            0);
+    REQUIRE(std::system(("'" + binary + "' '" + zero + "' --quiet --width 32 --height 24 --spp 8 -o '" + b + "'").c_str()) ==
+            0);
+    CHECK(readBytes(a) == readBytes(b));
+  }
+  fs::remove_all(dir);
+}
+
+// ---- Goldens ----------------------------------------------------------------------------------------------------
+
+TEST_CASE("golden: chapter 11 on its scene with another seed passes the z-test against its reference")
+{
+  const ChapterRender r = run(RAYLIFE_STEP11, kScenes + "/distributed.json",
+                              "--width 64 --height 48 --spp 256 --seed 1234", "golden11");
+  CHECK(compare(r.mean, r.variance, readPfm(kGolden + "/step11_distributed_64x48.pfm"),
+                readPfm(kGolden + "/step11_distributed_64x48_variance.pfm"), "golden, chapter 11")
+            .passed());
+}
+
+TEST_CASE("golden: chapter 12 on its scene with another seed passes the z-test against its reference")
+{
+  const ChapterRender r = run(RAYLIFE_STEP12, kScenes + "/meshes.json", "--width 64 --height 64 --spp 256 --seed 1234",
+                              "golden12");
+  CHECK(compare(r.mean, r.variance, readPfm(kGolden + "/step12_ambient_occlusion_64x64.pfm"),
+                readPfm(kGolden + "/step12_ambient_occlusion_64x64_variance.pfm"), "golden, chapter 12")
+            .passed());
+}
+
+TEST_CASE("golden: the test fails chapter 11's scene without its lens, or without its motion (the test can fail)")
+{
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("raylife_test_controls_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string text = readBytes(kScenes + "/distributed.json");
+  for (const auto& [key, what] : {std::pair{std::string("\"aperture\": 2.5"), std::string("aperture 0")},
+                                  std::pair{std::string("\"velocity\": [16, 0, 0]"), std::string("velocity 0")}}) {
+    std::string changed = text;
+    const std::size_t at = changed.find(key);
+    REQUIRE(at != std::string::npos);
+    changed.replace(at, key.size(), key.substr(0, key.find(':')) + (what == "aperture 0" ? ": 0" : ": [0, 0, 0]"));
+    const std::string scene = (dir / "control.json").string();
+    std::ofstream(scene) << changed;
+    const ChapterRender r = run(RAYLIFE_STEP11, scene, "--width 64 --height 48 --spp 256 --seed 1234", "control11");
+    CHECK_FALSE(compare(r.mean, r.variance, readPfm(kGolden + "/step11_distributed_64x48.pfm"),
+                        readPfm(kGolden + "/step11_distributed_64x48_variance.pfm"), "control, chapter 11 with " + what)
+                    .passed());
+  }
+  fs::remove_all(dir);
+  // Chapter 12 with a distance that cuts the occlusion.
+  const ChapterRender cut = run(RAYLIFE_STEP12, kScenes + "/meshes.json",
+                                "--width 64 --height 64 --spp 256 --seed 1234 --ao-distance 100", "control12");
+  CHECK_FALSE(compare(cut.mean, cut.variance, readPfm(kGolden + "/step12_ambient_occlusion_64x64.pfm"),
+                      readPfm(kGolden + "/step12_ambient_occlusion_64x64_variance.pfm"), "control, --ao-distance 100")
+                  .passed());
+}
