@@ -192,8 +192,10 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
 {
-  return runChapter(argc, argv, chapter,
-                    OptionsTraceFactory([&makeTrace](const Scene& scene, const RenderOptions&) { return makeTrace(scene); }));
+  const OptionsTraceFactory withOptions = [&makeTrace](const Scene& scene, const RenderOptions&) {
+    return makeTrace(scene);
+  };
+  return runChapter(argc, argv, chapter, withOptions);
 }
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace)

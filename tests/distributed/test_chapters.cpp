@@ -1,9 +1,8 @@
 // Chapters 11 and 12 as students run them (their executables, through run_chapter.h): ambient occlusion against
 // its closed forms, velocity 0 and aperture 0 against the still pinhole render, and both chapters' goldens (a
-// per-pixel z-test against a converged reference, as chapters 7 and 8's: tests/lights/test_lights_render.cpp).
+// per-pixel z-test against a converged reference, as chapters 7 and 8's: tests/lights/compare_renders.h).
 #include "../analytic/run_chapter.h"
-
-#include "render/image_compare.h"
+#include "../lights/compare_renders.h"
 
 #include <catch2/catch.hpp>
 
@@ -20,47 +19,6 @@ namespace {
 
 const std::string kScenes = RAYLIFE_SCENES;
 const std::string kGolden = RAYLIFE_DISTRIBUTED_GOLDEN;
-
-constexpr double kCritical = 3.29;       // two-sided significance 0.001 per channel
-constexpr double kMaxFailedShare = 0.02; // as chapters 7 and 8's goldens
-constexpr double kMaxTotalZ = 4;
-constexpr double kVarianceFloor = 1e-10;
-
-// The share of pixel channels whose |z| exceeds kCritical, and the worst channel's image-mean z.
-struct Verdict {
-  double failedShare = 0;
-  double worstTotalZ = 0;
-  bool passed() const { return failedShare <= kMaxFailedShare && std::abs(worstTotalZ) <= kMaxTotalZ; }
-};
-
-Verdict compare(const Image& a, const Image& varA, const Image& b, const Image& varB, const std::string& what)
-{
-  REQUIRE(a.width == b.width);
-  REQUIRE(a.height == b.height);
-  Verdict v;
-  v.failedShare = zTestImages(a, varA, b, varB, kCritical, kVarianceFloor).failedShare;
-  for (int c = 0; c < 3; ++c) {
-    double diff = 0, var = 0;
-    for (int y = 0; y < a.height; ++y)
-      for (int x = 0; x < a.width; ++x) {
-        diff += double(a.at(x, y, c)) - double(b.at(x, y, c));
-        var += double(varA.at(x, y, c)) + double(varB.at(x, y, c)) + kVarianceFloor;
-      }
-    const double z = diff / std::sqrt(var);
-    if (std::abs(z) > std::abs(v.worstTotalZ))
-      v.worstTotalZ = z;
-  }
-  std::cout << what << ": failed pixel channels " << 100 * v.failedShare << "% (bound " << 100 * kMaxFailedShare
-            << "%), worst channel's image mean off by z = " << v.worstTotalZ << " (bound " << kMaxTotalZ << ")\n";
-  return v;
-}
-
-ChapterRender run(const std::string& binary, const std::string& scene, const std::string& args, const std::string& tag)
-{
-  ChapterRender r = runChapterBinary(binary, scene, args, tag);
-  CHECK(statsValue(r.stats, "bad_samples") == 0);
-  return r;
-}
 
 // Ambient occlusion's image against a constant expectation: every pixel sees the surface whose AO is `expected`.
 // Each sample is 0 or 1, so the image mean's standard error is √(AO(1 − AO)/samples).
@@ -146,10 +104,9 @@ TEST_CASE("velocity 0 and aperture 0 render byte for byte as the scene without t
   std::ofstream(zero) << withZeros;
   for (const std::string& binary : {std::string(RAYLIFE_STEP06), std::string(RAYLIFE_STEP11)}) {
     const std::string a = (dir / "a.pfm").string(), b = (dir / "b.pfm").string();
-    REQUIRE(std::system(("'" + binary + "' '" + plain + "' --quiet --width 32 --height 24 --spp 8 -o '" + a + "'").c_str()) ==
-            0);
-    REQUIRE(std::system(("'" + binary + "' '" + zero + "' --quiet --width 32 --height 24 --spp 8 -o '" + b + "'").c_str()) ==
-            0);
+    const std::string options = "' --quiet --width 32 --height 24 --spp 8 -o '";
+    REQUIRE(std::system(("'" + binary + "' '" + plain + options + a + "'").c_str()) == 0);
+    REQUIRE(std::system(("'" + binary + "' '" + zero + options + b + "'").c_str()) == 0);
     CHECK(readBytes(a) == readBytes(b));
   }
   fs::remove_all(dir);

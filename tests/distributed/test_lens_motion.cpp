@@ -128,7 +128,8 @@ TEST_CASE("thin lens: the concentric disk mapping is uniform on the disk (equal 
     double phi = std::atan2(double(p.y), double(p.x));
     if (phi < 0)
       phi += 2 * kPi;
-    const int ring = std::min(kRings - 1, int(r2 * kRings)), sector = std::min(kSectors - 1, int(phi / (2 * kPi) * kSectors));
+    const int ring = std::min(kRings - 1, int(r2 * kRings));
+    const int sector = std::min(kSectors - 1, int(phi / (2 * kPi) * kSectors));
     ++count[std::size_t(ring * kSectors + sector)];
   }
   const double expected = double(kN) / (kRings * kSectors);
@@ -338,7 +339,8 @@ TEST_CASE("motion: a moving sphere's image is the average of still images at tim
   // The control: the same sphere still at time 0 is far from the blurred image.
   Sphere atStart = moving;
   atStart.velocity = Vec3(0);
-  const RenderResult frozen = renderWith(emitterScene({atStart, still}, eye, focal, 0, 0), camera, 64, 53, false, false);
+  const Scene atStartScene = emitterScene({atStart, still}, eye, focal, 0, 0);
+  const RenderResult frozen = renderWith(atStartScene, camera, 64, 53, false, false);
   const Image f = frozen.film.mean();
   int far = 0;
   for (std::size_t i = 0; i < f.pixels.size(); ++i)

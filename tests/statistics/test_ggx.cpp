@@ -2,6 +2,7 @@
 // reciprocity, its energy (white furnace, with the loss of single scattering reported against roughness), and the
 // limit roughness → 0, the mirror. Fixed seeds; significance 1% as in test_bsdf.cpp.
 #include "chi_square.h"
+#include "estimate.h"
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "shading/bsdf.h"
@@ -20,24 +21,6 @@ constexpr double kSignificance = 0.01;
 constexpr int kSamples = 200000;
 
 Vec3 polar(double theta) { return Vec3(Real(std::sin(theta)), 0, Real(std::cos(theta))); }
-
-struct Estimate {
-  double mean = 0;
-  double stdError = 0;
-};
-
-template <class F> Estimate estimate(int n, std::uint64_t seed, F&& sampleValue)
-{
-  Sampler rng(seed, 4, 5, 6);
-  double sum = 0, sumSq = 0;
-  for (int i = 0; i < n; ++i) {
-    const double v = sampleValue(rng);
-    sum += v;
-    sumSq += v * v;
-  }
-  const double mean = sum / n;
-  return Estimate{mean, std::sqrt(std::max(0.0, sumSq / n - mean * mean) / (n - 1))};
-}
 
 } // namespace
 
@@ -128,7 +111,7 @@ TEST_CASE("reciprocity: the GGX metal is symmetric in wo and wi")
   }
 }
 
-TEST_CASE("energy: the GGX metal of F0 = 1 reflects at most all light (white furnace); the loss against roughness")
+TEST_CASE("energy: the GGX metal of F0 = 1 reflects at most all light (white furnace), its loss printed against roughness")
 {
   std::cout << "GGX white furnace (F0 = 1): directional albedo, by importance sampling\n   alpha:";
   const Real alphas[] = {Real(0.05), Real(0.2), Real(0.4), Real(0.6), Real(0.8), Real(1)};
