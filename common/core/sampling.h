@@ -37,6 +37,29 @@ inline Vec3 sampleUniformHemisphere(Vec2 u)
 /// The pdf of sampleUniformHemisphere: 1/(2π) per steradian on z ≥ 0, and 0 below.
 inline Real uniformHemispherePdf(const Vec3& w) { return w.z >= 0 ? 1 / (2 * kPi) : 0; }
 
+// [concentricDisk]
+/// A uniformly distributed point on the unit disk by Shirley and Chiu's concentric mapping: the square [−1, 1]² is
+/// mapped ring by ring onto the disk, so that neighbouring points stay neighbours and the square's strata stay
+/// compact on the disk (a thin lens's samples, chapter 11). Its pdf is 1/π per unit area.
+/// @param u uniform in [0, 1)². @return a point with |p| ≤ 1.
+inline Vec2 sampleConcentricDisk(Vec2 u)
+{
+  const Vec2 o = Real(2) * u - Vec2(1);
+  if (o.x == 0 && o.y == 0)
+    return Vec2(0);
+  // The square's rings: |o.x| ≥ |o.y| in the left and right quarters, the other way in the top and bottom ones.
+  Real r, theta;
+  if (std::abs(o.x) > std::abs(o.y)) {
+    r = o.x;
+    theta = kPi / 4 * (o.y / o.x);
+  } else {
+    r = o.y;
+    theta = kPi / 2 - kPi / 4 * (o.x / o.y);
+  }
+  return r * Vec2(std::cos(theta), std::sin(theta));
+}
+// [concentricDisk]
+
 // [cosine]
 /// A cosine-distributed direction on the hemisphere z ≥ 0 (pdf cosθ/π), by Malley's method: a uniform point
 /// on the unit disk (radius √u₁, angle 2πu₂) lifted straight up onto the hemisphere. @param u uniform in [0, 1)².

@@ -21,12 +21,17 @@ namespace {
 
 // ---- Bounds ---------------------------------------------------------------------------------------------------
 
-// A sphere's box, widened by kBoxMargin relative to the size of its coordinates (see math.h for why).
+// A sphere's box, widened by kBoxMargin relative to the size of its coordinates (see math.h for why). A moving
+// sphere's is the union of its boxes at times 0 and 1: its centre moves along a straight line, so the box holds it
+// at every time in the shutter interval.
 Bounds3 sphereBounds(const Sphere& s)
 {
-  const Real margin = kBoxMargin<Real> * (maxComponent(glm::abs(s.center)) + s.radius);
-  const Vec3 extent(s.radius + margin);
-  return Bounds3{s.center - extent, s.center + extent};
+  auto at = [&s](const Vec3& center) {
+    const Real margin = kBoxMargin<Real> * (maxComponent(glm::abs(center)) + s.radius);
+    const Vec3 extent(s.radius + margin);
+    return Bounds3{center - extent, center + extent};
+  };
+  return s.moving() ? at(s.center).merged(at(s.center + s.velocity)) : at(s.center);
 }
 
 // The float at or below x (and at or above, for roundUp): a float box rounded outwards holds the exact box.
@@ -460,6 +465,8 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   // The primitives in leaf order, each kind in its own list, so that a leaf's primitives lie side by side; a
   // leaf's offset becomes its first primitive's place in its kind's list.
   std::vector<std::uint32_t> placeInKind(count);
+  // (A still scene keeps no velocities: its queries never look at one.)
+  const bool moving = std::any_of(spheres.begin(), spheres.end(), [](const Sphere& s) { return s.moving(); });
   spheres_.reserve(spheres.size());
   triangles_.reserve(triangles.size());
   for (std::size_t k = 0; k < count; ++k) {
@@ -468,6 +475,8 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
       placeInKind[k] = std::uint32_t(spheres_.size());
       const Sphere& s = spheres[std::size_t(index)];
       spheres_.push_back(SpherePrimitive{s.center, s.radius, index, false});
+      if (moving)
+        velocities_.push_back(s.velocity);
     } else {
       placeInKind[k] = std::uint32_t(triangles_.size());
       const Triangle& tri = triangles[std::size_t(index) - spheres.size()];
@@ -669,8 +678,9 @@ template <bool kAnyHit, bool kCountWork, class V> [[gnu::flatten]] Bvh::Traversa
         const SpherePrimitive& p = spheres_[i];
         if constexpr (kCountWork)
           found.work.primitivesTested += 1;
-        const std::optional<Real> t =
-            intersectSphere(ray.origin, ray.direction, p.center, p.radius, ray.tmin, ray.tmax);
+        // (A moving sphere where it is at the ray's time; a still scene has no velocities.)
+        const Vec3 center = velocities_.empty() ? p.center : sphereCenterAt(p.center, velocities_[i], ray.time);
+        const std::optional<Real> t = intersectSphere(ray.origin, ray.direction, center, p.radius, ray.tmin, ray.tmax);
         if (t) {
           if constexpr (kAnyHit)
             return Traversal{*t, p.index, found.work}; // a shadow ray needs no more than one blocker

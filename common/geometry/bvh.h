@@ -156,7 +156,8 @@ public:
   /// An empty tree: every query misses.
   Bvh() = default;
 
-  /// Builds the tree over `spheres` (each with a finite centre and radius > 0). The tree keeps its own copy of
+  /// Builds the tree over `spheres` (each with a finite centre and radius > 0; a moving sphere is bounded over the
+  /// whole shutter interval, and met where it is at the ray's time). The tree keeps its own copy of
   /// the spheres' geometry; it does not follow later changes to `spheres`. The build is deterministic: the
   /// same spheres and options give the same nodes, byte for byte.
   explicit Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options = {});
@@ -242,6 +243,7 @@ private:
   std::vector<SpherePrimitive> spheres_;
   std::vector<TrianglePrimitive> triangles_;
   std::vector<Vec3> vertices_; // the triangles' corners (a copy)
+  std::vector<Vec3> velocities_; // per entry of spheres_ when some sphere moves; empty for a still scene
   int depth_ = 0;
   bool eightAtOnce_ = false; // the boxes eight at a time (AVX2)
 };

@@ -22,6 +22,7 @@ struct Hit {
   Vec3 pointError{0};  ///< Per-component bound on the floating-point error of `point`.
   int primitive = -1;  ///< What was hit: sphere i is i, triangle j is Scene::spheres.size() + j.
   int material = -1;   ///< Index into Scene::materials.
+  Real time = 0;       ///< The time of the ray that made the hit (Ray::time); the rays that leave it keep it.
 
   /// True when the ray arrived from the front: from outside a sphere, or on a triangle's front side (its
   /// direction opposes the geometric normal).
@@ -32,7 +33,7 @@ struct Hit {
 /// bound to the side `dir` leaves through, so it cannot hit the same surface at t ≈ 0 (tmin = 0).
 inline Ray spawnRay(const Hit& hit, const Vec3& dir)
 {
-  return Ray{offsetRayOrigin(hit.point, hit.pointError, hit.geometricNormal, dir), dir, 0, kInfinity};
+  return Ray{offsetRayOrigin(hit.point, hit.pointError, hit.geometricNormal, dir), dir, 0, kInfinity, hit.time};
 }
 
 // [spawnRayTo]
@@ -43,10 +44,10 @@ inline Ray spawnRayTo(const Hit& hit, const Vec3& target)
   const Vec3 toTarget = target - hit.point;
   const Real distance = glm::length(toTarget);
   if (!(distance > 0)) // the target is the hit point itself: an empty ray, which nothing can block
-    return Ray{hit.point, hit.geometricNormal, 0, 0};
+    return Ray{hit.point, hit.geometricNormal, 0, 0, hit.time};
   const Vec3 dir = toTarget / distance;
   const Vec3 origin = offsetRayOrigin(hit.point, hit.pointError, hit.geometricNormal, dir);
-  return Ray{origin, dir, 0, glm::length(target - origin) * (1 - kShadowRayShorten)};
+  return Ray{origin, dir, 0, glm::length(target - origin) * (1 - kShadowRayShorten), hit.time};
 }
 // [spawnRayTo]
 

@@ -16,6 +16,9 @@ struct Ray {
   Vec3 direction{0, 0, -1}; ///< d, unit length.
   Real tmin = 0;         ///< Smallest accepted t (inclusive), ≥ 0.
   Real tmax = kInfinity; ///< Largest accepted t (exclusive); shrinks as nearer hits are found.
+  /// The moment in the shutter interval the ray travels at, in [0, 1) (chapter 11: motion blur): moving spheres are
+  /// met where they are at this time. Rays spawned from a hit keep it (Hit::time). 0 for a still scene.
+  Real time = 0;
 
   /// The point at parameter t.
   Vec3 at(Real t) const { return origin + t * direction; }

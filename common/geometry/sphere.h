@@ -18,11 +18,25 @@
 
 namespace raylife {
 
-/// A sphere: centre in world space, radius > 0 in scene units, and an index into the scene's materials.
+/// The centre at time t of a sphere with centre `center` at time 0 and `velocity` per shutter interval: `center`
+/// itself, bit for bit, when the velocity is 0 (so a still sphere is met exactly as before motion existed).
+inline Vec3 sphereCenterAt(const Vec3& center, const Vec3& velocity, Real t)
+{
+  return velocity != Vec3(0) ? center + t * velocity : center;
+}
+
+/// A sphere: centre in world space, radius > 0 in scene units, and an index into the scene's materials. A sphere
+/// with a velocity moves during the shutter interval (chapter 11: motion blur).
 struct Sphere {
-  Vec3 center{0};  ///< Centre, world space.
+  Vec3 center{0};  ///< Centre at time 0, world space.
   Real radius = 1; ///< Radius, > 0.
   int material = 0; ///< Index into Scene::materials.
+  Vec3 velocity{0}; ///< Scene units per shutter interval: the centre at time t ∈ [0, 1) is center + t·velocity.
+
+  /// True when the sphere moves (a non-zero velocity).
+  bool moving() const { return velocity != Vec3(0); }
+  /// The centre at time t ∈ [0, 1): `center` itself, bit for bit, for a sphere that does not move.
+  Vec3 centerAt(Real t) const { return sphereCenterAt(center, velocity, t); }
 };
 
 /// The two parameters where a line meets a sphere, t0 ≤ t1 (either may be negative: behind the origin).

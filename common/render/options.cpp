@@ -101,7 +101,9 @@ void checkChapterValue(const ChapterOption& o, const std::string& text)
     errno = 0;
     char* end = nullptr;
     const double v = std::strtod(text.c_str(), &end);
-    if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v))
+    // (inf is a value only of an option whose range is unbounded above: "no limit".)
+    const bool unbounded = std::isinf(v) && v > 0 && std::isinf(o.max);
+    if (text.empty() || *end != '\0' || (errno == ERANGE && !unbounded) || !(std::isfinite(v) || unbounded))
       throw UsageError(o.name + " expects a number, got '" + text + "'");
     inRange(v, text);
     return;

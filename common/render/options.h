@@ -35,7 +35,8 @@ struct ChapterOption {
   std::string defaultValue = {};
   std::vector<std::string> choices = {};                       ///< Choice: the words allowed.
   double min = -std::numeric_limits<double>::max();           ///< Integer, Number, IntegerList: the least value.
-  double max = std::numeric_limits<double>::max();            ///< Integer, Number, IntegerList: the largest value.
+  /// Integer, Number, IntegerList: the largest value. A Number whose max is +∞ also takes "inf" (no limit).
+  double max = std::numeric_limits<double>::max();
 };
 
 /// The values of a chapter's own options after parsing, each its default when not given.

@@ -204,7 +204,13 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
               const int s = share.index(i);
               Sampler sampler(settings.seed, x, y, std::uint64_t(s));
               const Vec2 offset = pixelOffset(settings.pixelSampling, s, strata, sampler, sequence);
-              const Ray ray = camera.ray(Vec2(Real(x), Real(y)) + offset);
+              // (Cook's distributed ray tracing, chapter 11: a point on the lens and a time in the shutter
+              // interval, drawn only where the camera and the scene have them, so a still pinhole render keeps
+              // every random number where it was.)
+              const Vec2 film = Vec2(Real(x), Real(y)) + offset;
+              Ray ray = settings.lens ? camera.ray(film, sampler.next2D()) : camera.ray(film);
+              if (settings.motion)
+                ray.time = sampler.next1D();
               Color L = trace(scene, ray, sampler, settings.maxDepth);
               // Guard the film: a NaN, infinite, negative or huge sample is counted and replaced by black.
               if (!Film::holds(L)) {

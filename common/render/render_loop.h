@@ -83,6 +83,12 @@ struct RenderSettings {
   std::optional<double> adaptive;
   /// The sample indices this process takes (all, by default). Adaptive sampling needs them all.
   SampleShare share;
+  /// Each sample also draws a point on the camera's lens (Camera::ray(film, lens)): set for a chapter that honours
+  /// the lens, when the camera has an aperture. False: the pinhole ray, and no number drawn.
+  bool lens = false;
+  /// Each sample also draws a time in [0, 1) for its ray (Ray::time): set for a chapter that honours motion, when
+  /// the scene has some (Scene::hasMotion). False: time 0, and no number drawn.
+  bool motion = false;
 };
 
 /// What a render produced and what it cost.

@@ -31,14 +31,15 @@ std::string describeReads(unsigned uses)
   const std::pair<unsigned, const char*> features[] = {
       {kUsesSpheres, "spheres and meshes"}, {kUsesColors, "material colours"}, {kUsesPointLights, "point lights"},
       {kUsesAmbient, "the ambient term"},   {kUsesBackground, "the background"}, {kUsesEmission, "emission"},
-      {kUsesMirror, "mirrors"},             {kUsesGlass, "glass"},              {kUsesGlossy, "glossy materials"}};
+      {kUsesMirror, "mirrors"},             {kUsesGlass, "glass"},              {kUsesGlossy, "glossy materials"},
+      {kUsesMetal, "metals"},               {kUsesLens, "the camera's lens"},   {kUsesMotion, "the spheres' velocities"}};
   for (const auto& [flag, what] : features)
     if (uses & flag)
       parts.push_back(what);
   std::string out;
   for (std::size_t i = 0; i < parts.size(); ++i)
     out += (i == 0 ? "" : (i + 1 == parts.size() ? " and " : ", ")) + parts[i];
-  const unsigned everyKind = kUsesMirror | kUsesGlass | kUsesGlossy;
+  const unsigned everyKind = kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMetal;
   if ((uses & kUsesSpheres) && (uses & kUsesColors) && (uses & everyKind) != everyKind)
     out += " (the other kinds of material are shaded as diffuse)";
   return out;
@@ -75,13 +76,21 @@ std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGive
       emissive += m.isEmissive() && !(uses & kUsesEmission);
       asDiffuse += (m.type == MaterialType::Mirror && !(uses & kUsesMirror)) ||
                    (m.type == MaterialType::Glass && !(uses & kUsesGlass)) ||
-                   (m.type == MaterialType::Glossy && !(uses & kUsesGlossy));
+                   (m.type == MaterialType::Glossy && !(uses & kUsesGlossy)) ||
+                   (m.type == MaterialType::Metal && !(uses & kUsesMetal));
     }
     if (emissive)
       parts.push_back("the emission of " + plural(emissive, "material", "materials"));
     if (asDiffuse)
       parts.push_back("the reflection and refraction of " + plural(asDiffuse, "material", "materials") +
                       " (shaded as diffuse)");
+  }
+  if (!(uses & kUsesLens) && scene.camera.aperture > 0)
+    parts.push_back("the camera's aperture (a pinhole here)");
+  if (!(uses & kUsesMotion) && scene.hasMotion()) {
+    const auto moving = std::size_t(
+        std::count_if(scene.spheres.begin(), scene.spheres.end(), [](const Sphere& s) { return s.moving(); }));
+    parts.push_back("the velocity of " + plural(moving, "sphere", "spheres") + " (drawn at time 0)");
   }
   if (maxDepthGiven && !(uses & kUsesMaxDepth))
     parts.push_back("--max-depth (nothing here recurses)");
@@ -286,6 +295,8 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
     const bool spread = chapter.pixelSampling == PixelSampling::Centre && settings.spp.value_or(2) > 1;
     if (spread)
       settings.pixelSampling = PixelSampling::Jittered;
+    settings.lens = (chapter.uses & kUsesLens) && scene.camera.aperture > 0;
+    settings.motion = (chapter.uses & kUsesMotion) && scene.hasMotion();
     settings.progress = !options.quiet && ::isatty(STDERR_FILENO);
     settings.stop = &gStopRequested;
     settings.adaptive = applyPlanOptions(name, scene, chapter, options); // --verbose, --adaptive

@@ -1,5 +1,7 @@
 #include "scene/camera.h"
 
+#include "core/sampling.h"
+
 namespace raylife {
 
 // [makeCameraBasis]
@@ -33,24 +35,41 @@ std::variant<CameraBasis, BasisError> makeCameraBasis(const Vec3& eye, const Vec
 }
 // [makeCameraBasis]
 
-Camera::Camera(const CameraBasis& basis, const Vec3& eye, Real vfovDeg, int width, int height)
-    : basis_(basis), eye_(eye), width_(width), height_(height)
+Camera::Camera(const CameraBasis& basis, const Vec3& eye, Real vfovDeg, int width, int height, Real aperture,
+               Real focus)
+    : basis_(basis), eye_(eye), width_(width), height_(height), aperture_(aperture), focus_(focus)
 {
   halfHeight_ = std::tan(glm::radians(vfovDeg) / 2);
   halfWidth_ = halfHeight_ * Real(width) / Real(height);
 }
 
 // [camera_ray]
-Ray Camera::ray(Vec2 film) const
+Vec3 Camera::imagePlaneDirection(Vec2 film) const
 {
   // Film position in pixels → image-plane coordinates in [−halfWidth, halfWidth] × [−halfHeight, halfHeight],
   // with y flipped so that row 0 is the top.
   const Real x = (2 * film.x / Real(width_) - 1) * halfWidth_;
   const Real y = (1 - 2 * film.y / Real(height_)) * halfHeight_;
   const Real z = 1;
-  const Vec3 d = basis_.u * x + basis_.v * y - basis_.w * z;
-  return Ray{eye_, glm::normalize(d), 0, kInfinity};
+  return basis_.u * x + basis_.v * y - basis_.w * z;
 }
+
+Ray Camera::ray(Vec2 film) const { return Ray{eye_, glm::normalize(imagePlaneDirection(film)), 0, kInfinity}; }
 // [camera_ray]
+
+// [thin_lens]
+Ray Camera::ray(Vec2 film, Vec2 lens) const
+{
+  if (!(aperture_ > 0))
+    return ray(film);
+  // The pinhole ray's point on the plane of focus: d's component along −w is 1, so eye + focus·d lies on it.
+  const Vec3 d = imagePlaneDirection(film);
+  const Vec3 inFocus = eye_ + focus_ * d;
+  // A point on the lens (a disk of radius `aperture` around the eye, in the plane of u and v), aimed at it.
+  const Vec2 disk = aperture_ * sampleConcentricDisk(lens);
+  const Vec3 origin = eye_ + basis_.u * disk.x + basis_.v * disk.y;
+  return Ray{origin, glm::normalize(inFocus - origin), 0, kInfinity};
+}
+// [thin_lens]
 
 } // namespace raylife

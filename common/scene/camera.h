@@ -1,5 +1,5 @@
 /// @file camera.h
-/// @brief The pinhole camera: the lecture's orthonormal basis and d = u·x + v·y − w·z.
+/// @brief The camera: the lecture's orthonormal basis and d = u·x + v·y − w·z, through a pinhole or a thin lens.
 #pragma once
 
 #include "core/math.h"
@@ -28,21 +28,34 @@ struct BasisError {
 ///         view direction, or any input is not finite. Never returns a basis with a NaN in it.
 std::variant<CameraBasis, BasisError> makeCameraBasis(const Vec3& eye, const Vec3& focal, const Vec3& up);
 
-/// A pinhole camera that maps a position on the image to a primary ray.
+/// A camera that maps a position on the image (and, for a thin lens, a point on the lens) to a primary ray.
 ///
 /// Image coordinates: x to the right in [0, width], y downwards in [0, height]; pixel (i, j) covers
 /// [i, i+1] × [j, j+1], so its centre is (i + ½, j + ½). Row 0 is the top of the image.
+///
+/// The thin lens (chapter 11): a lens of radius `aperture` centred on the eye, in the plane spanned by u and v,
+/// focused on the plane at distance `focus` in front of the eye (along −w). Every ray through a given image point
+/// meets the pinhole ray of that point on the plane of focus, whatever the lens point, so what lies on that plane is
+/// sharp and the rest is blurred into a circle of confusion. Aperture 0 is the pinhole.
 class Camera {
 public:
   /// @param basis   a basis from makeCameraBasis (orthonormal).
-  /// @param eye     the centre of projection, world space.
+  /// @param eye     the centre of projection (the lens's centre), world space.
   /// @param vfovDeg full vertical field of view in degrees, in (0, 180).
   /// @param width,height image size in pixels, ≥ 1.
-  Camera(const CameraBasis& basis, const Vec3& eye, Real vfovDeg, int width, int height);
+  /// @param aperture the lens radius in scene units, ≥ 0 (0: a pinhole).
+  /// @param focus   the distance from the eye to the plane in focus, along the view direction, > 0.
+  Camera(const CameraBasis& basis, const Vec3& eye, Real vfovDeg, int width, int height, Real aperture = 0,
+         Real focus = 1);
 
-  /// The primary ray through image position `film` (pixels, see the class comment).
+  /// The pinhole ray through image position `film` (pixels, see the class comment), from the eye.
   /// Its direction is d = u·x + v·y − w·z with z = 1 and (x, y) the position on the image plane, normalised.
   Ray ray(Vec2 film) const;
+
+  /// The ray through image position `film` from lens point `lens` (uniform in [0, 1)², mapped onto the lens by the
+  /// concentric disk mapping): from that point on the lens towards where the pinhole ray of `film` meets the plane
+  /// of focus. With aperture 0 it is ray(film), bit for bit.
+  Ray ray(Vec2 film, Vec2 lens) const;
 
   /// The camera frame.
   const CameraBasis& basis() const { return basis_; }
@@ -52,6 +65,10 @@ public:
   int width() const { return width_; }
   /// Image height in pixels.
   int height() const { return height_; }
+  /// The lens radius in scene units (0: a pinhole).
+  Real aperture() const { return aperture_; }
+  /// The distance from the eye to the plane in focus, along −w.
+  Real focus() const { return focus_; }
 
 private:
   CameraBasis basis_;
@@ -60,6 +77,11 @@ private:
   Real halfWidth_;  // halfHeight_ · width / height
   int width_;
   int height_;
+  Real aperture_; // lens radius
+  Real focus_;    // distance to the plane in focus
+
+  // The unnormalised direction u·x + v·y − w of image position `film`: its component along −w is 1.
+  Vec3 imagePlaneDirection(Vec2 film) const;
 };
 
 } // namespace raylife

@@ -58,7 +58,7 @@ Real LightSampler::probability(int primitive) const
 }
 
 // [sample]
-std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Vec2 u) const
+std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Vec2 u, Real time) const
 {
   if (cdf_.empty())
     return std::nullopt;
@@ -94,12 +94,13 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Ve
 
   // An emissive sphere: a direction uniform in the cone it subtends, and the point it first hits on the sphere.
   const Sphere& s = scene_.spheres[std::size_t(light)];
-  const Vec3 wi = sampleSphereCone(ref, s.center, s.radius, u);
-  const Real pdf = choice * sphereConePdf(ref, s.center, s.radius);
-  const std::optional<SphereRoots<Real>> roots = intersectSphereRoots(ref, wi, s.center, s.radius);
+  const Vec3 center = s.centerAt(time);
+  const Vec3 wi = sampleSphereCone(ref, center, s.radius, u);
+  const Real pdf = choice * sphereConePdf(ref, center, s.radius);
+  const std::optional<SphereRoots<Real>> roots = intersectSphereRoots(ref, wi, center, s.radius);
   // A direction at the cone's very edge may graze past by rounding: take the closest approach, which is on the
   // sphere to within that rounding. From inside, the far root is the one in front.
-  Real t = glm::dot(s.center - ref, wi);
+  Real t = glm::dot(center - ref, wi);
   if (roots)
     t = roots->t0 >= 0 ? roots->t0 : roots->t1;
   const Vec3 target = ref + std::max(Real(0), t) * wi;
@@ -124,7 +125,7 @@ bool lightVisible(const Scene& scene, const Hit& hit, const LightSample& ls)
 }
 // [visibleImpl]
 
-Real LightSampler::pdf(const Vec3& ref, int primitive, const Vec3& point) const
+Real LightSampler::pdf(const Vec3& ref, int primitive, const Vec3& point, Real time) const
 {
   const Real choice = probability(primitive);
   if (!(choice > 0))
@@ -134,7 +135,7 @@ Real LightSampler::pdf(const Vec3& ref, int primitive, const Vec3& point) const
     return choice * triangleLightPdf(ref, p0, p1, p2, point);
   }
   const Sphere& s = scene_.spheres[std::size_t(primitive)];
-  return choice * sphereConePdf(ref, s.center, s.radius);
+  return choice * sphereConePdf(ref, s.centerAt(time), s.radius);
 }
 
 } // namespace raylife

@@ -284,15 +284,17 @@ public:
   /// point on a surface: uniform in the emissive sphere's cone (sampleSphereCone), in the emissive triangle's
   /// solid angle (sampleTriangleLight), or the point light itself.
   /// @param ref the shaded point, world space. @param uLight uniform in [0, 1). @param u uniform in [0, 1)².
+  /// @param time the time of the shaded point's ray (Ray::time): a moving emissive sphere is sampled where it is
+  /// then.
   /// @return nothing when there is no light, or the sample carries no light (ref at a point light's position, a
   /// triangle seen edge on).
-  std::optional<LightSample> sample(const Vec3& ref, Real uLight, Vec2 u) const;
+  std::optional<LightSample> sample(const Vec3& ref, Real uLight, Vec2 u, Real time = 0) const;
 
   /// The pdf with which sample() chooses, from `ref`, the direction towards `point` on emitter `primitive` (a
   /// direction that meets it there first): its choice probability times sphereConePdf or triangleLightPdf. 0 for a
   /// primitive that does not emit. This is the pdf MIS needs when a BSDF-sampled ray from `ref` hits that emitter
-  /// at `point`.
-  Real pdf(const Vec3& ref, int primitive, const Vec3& point) const;
+  /// at `point`. `time` is the ray's time (Ray::time), where a moving emissive sphere is.
+  Real pdf(const Vec3& ref, int primitive, const Vec3& point, Real time = 0) const;
 
   /// The probability of choosing emitter `primitive` (0 for a primitive that does not emit), in [0, 1].
   Real probability(int primitive) const;

@@ -1,5 +1,7 @@
 #include "scene/scene.h"
 
+#include <algorithm>
+
 namespace raylife {
 
 namespace {
@@ -15,7 +17,7 @@ namespace {
 std::optional<Hit> makeSphereHit(const std::vector<Sphere>& spheres, const Ray& ray, Real t, int index)
 {
   const Sphere& s = spheres[std::size_t(index)];
-  const SurfacePoint<Real> sp = sphereSurfacePoint(ray.origin, ray.direction, t, s.center, s.radius);
+  const SurfacePoint<Real> sp = sphereSurfacePoint(ray.origin, ray.direction, t, s.centerAt(ray.time), s.radius);
   std::optional<Hit> hit(std::in_place);
   hit->t = t;
   hit->point = sp.point;
@@ -24,6 +26,7 @@ std::optional<Hit> makeSphereHit(const std::vector<Sphere>& spheres, const Ray& 
   hit->pointError = sp.error;
   hit->primitive = index;
   hit->material = s.material;
+  hit->time = ray.time;
   return hit;
 }
 
@@ -54,6 +57,7 @@ std::optional<Hit> makeTriangleHit(const Scene& scene, const Ray& ray, Real t, s
   hit->pointError = tp.error;
   hit->primitive = int(scene.spheres.size() + triangle);
   hit->material = tri.material;
+  hit->time = ray.time;
   return hit;
 }
 // [triangleHit]
@@ -71,8 +75,15 @@ void Scene::buildAccelerator()
 {
   const bool tree = primitiveCount() > kFlatListMaxPrimitives;
   accelerator = tree ? Bvh(spheres, vertices, triangles) : Bvh();
-  const bool fourAtOnce = !tree && spheres.size() >= kLanesMinSpheres && laneTestAvailable(LaneTest::FourAtOnce);
+  // (The lanes hold still spheres only: a scene with motion loops over its spheres at the ray's time.)
+  const bool fourAtOnce = !tree && spheres.size() >= kLanesMinSpheres &&
+                          laneTestAvailable(LaneTest::FourAtOnce) && !hasMotion();
   lanes = fourAtOnce ? SphereLanes(spheres, LaneTest::FourAtOnce) : SphereLanes();
+}
+
+bool Scene::hasMotion() const
+{
+  return std::any_of(spheres.begin(), spheres.end(), [](const Sphere& s) { return s.moving(); });
 }
 
 bool Scene::usesAccelerator() const
@@ -110,7 +121,8 @@ bool Scene::usesLanes() const
       // Find the nearest sphere: each hit shrinks the interval, so later spheres must be nearer to count.
       for (std::size_t i = 0; i < spheres.size(); ++i) {
         const Sphere& s = spheres[i];
-        if (auto t = intersectSphere(ray.origin, ray.direction, s.center, s.radius, ray.tmin, tNearest)) {
+        const Vec3 center = s.centerAt(ray.time);
+        if (auto t = intersectSphere(ray.origin, ray.direction, center, s.radius, ray.tmin, tNearest)) {
           tNearest = *t;
           nearest = int(i);
         }
@@ -143,7 +155,7 @@ bool Scene::usesLanes() const
       return true;
   } else {
     for (const Sphere& s : spheres)
-      if (intersectSphere(ray.origin, ray.direction, s.center, s.radius, ray.tmin, ray.tmax))
+      if (intersectSphere(ray.origin, ray.direction, s.centerAt(ray.time), s.radius, ray.tmin, ray.tmax))
         return true;
   }
   for (std::size_t j = 0; j < triangles.size(); ++j) {
@@ -159,7 +171,7 @@ std::optional<Real> Scene::intersectPrimitive(const Ray& ray, int primitive) con
 {
   if (std::size_t(primitive) < spheres.size()) {
     const Sphere& s = spheres[std::size_t(primitive)];
-    return intersectSphere(ray.origin, ray.direction, s.center, s.radius, ray.tmin, ray.tmax);
+    return intersectSphere(ray.origin, ray.direction, s.centerAt(ray.time), s.radius, ray.tmin, ray.tmax);
   }
   const auto [p0, p1, p2] = triangleVertices(std::size_t(primitive) - spheres.size());
   if (const auto h = intersectTriangle(ray.origin, ray.direction, p0, p1, p2, ray.tmin, ray.tmax))
@@ -204,8 +216,9 @@ TracedOcclusion Scene::occludedWithWork(const Ray& ray) const
 
 Camera Scene::makeCamera(int width, int height) const
 {
+  const Real focus = camera.focus > 0 ? camera.focus : glm::length(camera.focal - camera.eye);
   return Camera(camera.basis, camera.eye, camera.vfovDeg, width > 0 ? width : camera.width,
-                height > 0 ? height : camera.height);
+                height > 0 ? height : camera.height, camera.aperture, focus);
 }
 
 } // namespace raylife

@@ -31,6 +31,10 @@ struct CameraSpec {
   Real vfovDeg = 40;   ///< Full vertical field of view in degrees, in (0, 180).
   int width = 320;     ///< Default image width in pixels, ≥ 1.
   int height = 240;    ///< Default image height in pixels, ≥ 1.
+  Real aperture = 0;   ///< The lens radius in scene units, ≥ 0 (0: a pinhole; chapter 11).
+  /// The distance from the eye to the plane in focus along the view direction, > 0; 0 stands for |focal − eye|
+  /// (the point looked at is sharp).
+  Real focus = 0;
   CameraBasis basis{}; ///< The orthonormal basis, built and checked when the scene is loaded.
 };
 
@@ -119,6 +123,9 @@ struct Scene {
   /// Not thread-safe: call it before rendering (no query ever builds anything, so queries are thread-safe).
   void buildAccelerator();
 
+  /// True when some sphere moves (Sphere::velocity): rays then carry a time (Ray::time).
+  bool hasMotion() const;
+
   /// Spheres and triangles together.
   std::size_t primitiveCount() const { return spheres.size() + triangles.size(); }
 
@@ -156,7 +163,8 @@ struct Scene {
   /// occluded, also returning the work it did. Counts one ray.
   TracedOcclusion occludedWithWork(const Ray& ray) const;
 
-  /// The camera for an image of width × height pixels (the scene's own size when these are 0).
+  /// The camera for an image of width × height pixels (the scene's own size when these are 0), with the scene's
+  /// lens (aperture and focus).
   Camera makeCamera(int width = 0, int height = 0) const;
 };
 

@@ -536,7 +536,7 @@ using Path = Reader::Path;
 void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& cam, bool sizeGiven)
 {
   r.object(j, path);
-  r.onlyKeys(j, path, {"eye", "focal", "up", "vfov", "width", "height"});
+  r.onlyKeys(j, path, {"eye", "focal", "up", "vfov", "width", "height", "aperture", "focus"});
   cam.eye = r.vec3(r.required(j, path, "eye"), path / "eye");
   cam.focal = r.vec3(r.required(j, path, "focal"), path / "focal");
   if (j.contains("up"))
@@ -553,6 +553,17 @@ void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& ca
   if (std::int64_t(cam.width) * cam.height > kMaxPixels && !sizeGiven)
     r.fail(path / "width", "an image of " + std::to_string(cam.width) + "x" + std::to_string(cam.height) +
                                " pixels is larger than the " + std::to_string(kMaxPixels) + " pixels raylife allows");
+  if (j.contains("aperture")) {
+    cam.aperture = r.number(j["aperture"], path / "aperture");
+    if (!(cam.aperture >= 0 && cam.aperture < kInfinity))
+      r.fail(path / "aperture", "the aperture (the lens radius) must be 0 or more and finite, got " +
+                                    j["aperture"].dump());
+  }
+  if (j.contains("focus")) {
+    cam.focus = r.number(j["focus"], path / "focus");
+    if (!(cam.focus > 0 && cam.focus < kInfinity))
+      r.fail(path / "focus", "the focus distance must be greater than 0 and finite, got " + j["focus"].dump());
+  }
   auto basis = makeCameraBasis(cam.eye, cam.focal, cam.up);
   if (auto* error = std::get_if<BasisError>(&basis))
     r.fail(path / (cam.eye == cam.focal ? "focal" : "up"), error->message); // blame the vector at fault
@@ -565,7 +576,7 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
   Material m;
   m.name = name;
   const std::string type = r.string(r.required(j, path, "type"), path / "type");
-  const std::vector<std::string> types = {"diffuse", "mirror", "glass", "glossy"};
+  const std::vector<std::string> types = {"diffuse", "mirror", "glass", "glossy", "metal"};
   if (type == "diffuse")
     m.type = MaterialType::Diffuse;
   else if (type == "mirror")
@@ -574,6 +585,8 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
     m.type = MaterialType::Glass;
   else if (type == "glossy")
     m.type = MaterialType::Glossy;
+  else if (type == "metal")
+    m.type = MaterialType::Metal;
   else
     r.fail(path / "type", "unknown material type '" + shorten(type) + "'" + suggestion(type, types) + "; known types: " +
                               joinQuoted(types));
@@ -582,12 +595,12 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
   std::vector<std::string> keys = {"type", "color", "emission"};
   if (m.type == MaterialType::Glass)
     keys.push_back("ior");
-  if (m.type == MaterialType::Glossy)
+  if (m.type == MaterialType::Glossy || m.type == MaterialType::Metal)
     keys.push_back("roughness");
   for (const char* special : {"ior", "roughness"})
     if (j.contains(special) && std::find(keys.begin(), keys.end(), special) == keys.end())
       r.fail(path / special, std::string("'") + special + "' does not apply to a " + type + " material (only to " +
-                                 (std::string(special) == "ior" ? "glass" : "glossy") + ")");
+                                 (std::string(special) == "ior" ? "glass" : "glossy and metal") + ")");
   r.onlyKeys(j, path, keys);
 
   if (j.contains("color"))
@@ -601,7 +614,9 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
   }
   if (j.contains("roughness")) {
     m.roughness = r.number(j["roughness"], path / "roughness");
-    if (!(m.roughness > 0 && m.roughness <= 1))
+    if (m.type == MaterialType::Metal && !(m.roughness >= 0 && m.roughness <= 1))
+      r.fail(path / "roughness", "a metal's roughness (GGX alpha) must lie in [0, 1], got " + j["roughness"].dump());
+    if (m.type == MaterialType::Glossy && !(m.roughness > 0 && m.roughness <= 1))
       r.fail(path / "roughness", "roughness must lie in (0, 1], got " + j["roughness"].dump());
   }
   return m;
@@ -922,13 +937,19 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
     for (std::size_t i = 0; i < spheres.size(); ++i) {
       const Path p = top / "spheres" / i;
       const Json& js = r.object(spheres[i], p);
-      r.onlyKeys(js, p, {"center", "radius", "material"});
+      r.onlyKeys(js, p, {"center", "radius", "material", "velocity"});
       Sphere s;
       s.center = r.vec3(r.required(js, p, "center"), p / "center");
       s.radius = r.number(r.required(js, p, "radius"), p / "radius");
       if (!(s.radius > 0))
         r.fail(p / "radius", "the radius must be greater than 0, got " + js["radius"].dump());
       s.material = material(js, p);
+      if (js.contains("velocity")) {
+        s.velocity = r.vec3(js["velocity"], p / "velocity");
+        if (!isFinite(s.center + s.velocity))
+          r.fail(p / "velocity", "the sphere's centre at the end of the shutter interval (center + velocity) is not "
+                                 "finite");
+      }
       scene.spheres.push_back(s);
     }
   }

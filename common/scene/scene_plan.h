@@ -25,6 +25,9 @@ enum Feature : unsigned {
   kUsesMaxDepth = 1u << 9,      ///< Honours --max-depth.
   kShadowRays = 1u << 10,       ///< Traces a shadow ray from a hit to each point light (chapters 4, 5, 9).
   kSamplesLights = 1u << 11,    ///< Samples a light at each hit: next-event estimation (chapters 7 on).
+  kUsesLens = 1u << 12,         ///< Honours the camera's aperture (a thin lens; several samples a pixel).
+  kUsesMotion = 1u << 13,       ///< Honours the spheres' velocities (each sample draws a time).
+  kUsesMetal = 1u << 14,        ///< Treats metal materials as metal (GGX).
 };
 
 /// What a scene needs, computed once from the scene and a chapter's feature flags (Feature, above).

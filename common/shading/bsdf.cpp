@@ -154,11 +154,110 @@ std::optional<BsdfSample> phongSample(const Color& albedo, Real exponent, const 
 }
 // [phong]
 
+// [ggx]
+Color schlickFresnel(const Color& f0, Real cosTheta)
+{
+  const Real m = std::clamp(1 - cosTheta, Real(0), Real(1));
+  const Real m2 = m * m;
+  return f0 + (Color(1) - f0) * (m2 * m2 * m);
+}
+
+Real ggxD(const Vec3& h, Real alpha)
+{
+  if (h.z <= 0)
+    return 0;
+  const Real a2 = alpha * alpha;
+  const Real denominator = (a2 - 1) * (h.z * h.z) + 1;
+  return a2 / (kPi * denominator * denominator);
+}
+
+Real ggxLambda(const Vec3& w, Real alpha)
+{
+  // α² tan²θ = α² (1 − cos²θ)/cos²θ; a grazing direction (cosθ = 0) is wholly masked (Λ = ∞).
+  const Real cos2 = w.z * w.z;
+  if (cos2 == 0)
+    return kInfinity;
+  const Real a2Tan2 = alpha * alpha * std::max(Real(0), 1 - cos2) / cos2;
+  return (std::sqrt(1 + a2Tan2) - 1) / 2;
+}
+
+Real ggxG1(const Vec3& w, Real alpha) { return 1 / (1 + ggxLambda(w, alpha)); }
+
+Vec3 sampleGgxVisibleNormal(const Vec3& wo, Real alpha, Vec2 u)
+{
+  // Stretch the view direction so that the ellipsoid of normals becomes the hemisphere of radius 1.
+  const Vec3 v = glm::normalize(Vec3(alpha * wo.x, alpha * wo.y, wo.z));
+  // A frame around it.
+  const Real lengthSq = v.x * v.x + v.y * v.y;
+  const Vec3 t1 = lengthSq > 0 ? Vec3(-v.y, v.x, 0) / std::sqrt(lengthSq) : Vec3(1, 0, 0);
+  const Vec3 t2 = glm::cross(v, t1);
+  // A uniform point on the disk, its half behind the view direction squeezed onto the part that is seen.
+  const Real r = std::sqrt(u.x);
+  const SinCos<Real> phi = sinCos2Pi(u.y);
+  const Real p1 = r * phi.cos;
+  const Real s = (1 + v.z) / 2;
+  const Real p2 = (1 - s) * std::sqrt(std::max(Real(0), 1 - p1 * p1)) + s * r * phi.sin;
+  // Lift it onto the hemisphere and unstretch the normal.
+  const Vec3 n = p1 * t1 + p2 * t2 + std::sqrt(std::max(Real(0), 1 - p1 * p1 - p2 * p2)) * v;
+  return glm::normalize(Vec3(alpha * n.x, alpha * n.y, std::max(Real(0), n.z)));
+}
+
+namespace {
+// A direction on wo's side taken to the upper hemisphere (the opaque BSDFs reflect on either side).
+Vec3 upper(const Vec3& w, bool flip) { return flip ? Vec3(w.x, w.y, -w.z) : w; }
+} // namespace
+
+Color metalEval(const Color& f0, Real alpha, const Vec3& wo, const Vec3& wi)
+{
+  if (alpha < kMinGgxAlpha || !sameSide(wo, wi))
+    return Color(0);
+  const bool flip = wo.z < 0;
+  const Vec3 o = upper(wo, flip), i = upper(wi, flip);
+  const Vec3 h = glm::normalize(o + i);
+  const Real G2 = 1 / (1 + ggxLambda(o, alpha) + ggxLambda(i, alpha));
+  return ggxD(h, alpha) * G2 * schlickFresnel(f0, std::abs(glm::dot(i, h))) / (4 * o.z * i.z);
+}
+
+Real metalPdf(Real alpha, const Vec3& wo, const Vec3& wi)
+{
+  if (alpha < kMinGgxAlpha || !sameSide(wo, wi))
+    return 0;
+  const bool flip = wo.z < 0;
+  const Vec3 o = upper(wo, flip), i = upper(wi, flip);
+  const Vec3 h = glm::normalize(o + i);
+  // D_wo(h) / (4 wo·h), with D_wo(h) = G1(wo) (wo·h) D(h) / wo.z: the wo·h cancel.
+  return ggxG1(o, alpha) * ggxD(h, alpha) / (4 * o.z);
+}
+
+std::optional<BsdfSample> metalSample(const Color& f0, Real alpha, const Vec3& wo, Vec2 u)
+{
+  if (wo.z == 0)
+    return std::nullopt;
+  const bool flip = wo.z < 0;
+  const Vec3 o = upper(wo, flip);
+  if (alpha < kMinGgxAlpha) { // smooth: the mirror, with the Fresnel of its angle
+    const Vec3 wi = reflectLocal(wo);
+    return BsdfSample{wi, schlickFresnel(f0, o.z) / std::abs(wi.z), 1, true};
+  }
+  // Reflect wo about a normal the viewer sees; below the horizon: no light (the pdf keeps that mass).
+  const Vec3 h = sampleGgxVisibleNormal(o, alpha, u);
+  const Vec3 i = reflect(o, h);
+  if (!(i.z > 0))
+    return std::nullopt;
+  const Vec3 wi = upper(i, flip);
+  const Real pdf = metalPdf(alpha, wo, wi);
+  if (!(pdf > 0))
+    return std::nullopt;
+  return BsdfSample{wi, metalEval(f0, alpha, wo, wi), pdf, false};
+}
+// [ggx]
+
 Color bsdfEval(const Material& m, const Vec3& wo, const Vec3& wi)
 {
   switch (m.type) {
   case MaterialType::Diffuse: return lambertianEval(m.color, wo, wi);
   case MaterialType::Glossy: return phongEval(m.color, phongExponent(m.roughness), wo, wi);
+  case MaterialType::Metal: return metalEval(m.color, m.roughness, wo, wi);
   case MaterialType::Mirror:
   case MaterialType::Glass: return Color(0);
   }
@@ -170,6 +269,7 @@ Real bsdfPdf(const Material& m, const Vec3& wo, const Vec3& wi)
   switch (m.type) {
   case MaterialType::Diffuse: return lambertianPdf(wo, wi);
   case MaterialType::Glossy: return phongPdf(phongExponent(m.roughness), wo, wi);
+  case MaterialType::Metal: return metalPdf(m.roughness, wo, wi);
   case MaterialType::Mirror:
   case MaterialType::Glass: return 0;
   }
@@ -184,6 +284,7 @@ std::optional<BsdfSample> bsdfSample(const Material& m, const Vec3& wo, Vec2 u, 
   case MaterialType::Mirror: return mirrorSample(m.color, wo);
   case MaterialType::Glass: return dielectricSample(m.color, m.ior, wo, uChoice);
   case MaterialType::Glossy: return phongSample(m.color, phongExponent(m.roughness), wo, u);
+  case MaterialType::Metal: return metalSample(m.color, m.roughness, wo, u);
   }
   return std::nullopt;
 }

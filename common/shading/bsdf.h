@@ -104,11 +104,53 @@ Real phongPdf(Real exponent, const Vec3& wo, const Vec3& wi);
 /// (the estimator then counts the sample as 0, which keeps it unbiased: the pdf is not renormalised).
 std::optional<BsdfSample> phongSample(const Color& albedo, Real exponent, const Vec3& wo, Vec2 u);
 
+// ---- Metal: the GGX (Trowbridge–Reitz) microfacet BRDF -------------------------------------------------------
+
+/// Below this GGX α a metal is a smooth mirror (a delta lobe, with Schlick's Fresnel): the distribution's peak
+/// 1/(πα²) and the sampled directions' spread leave the range where they mean anything. pbrt-v4's threshold.
+inline constexpr Real kMinGgxAlpha = Real(1e-3);
+
+/// Schlick's approximation of a conductor's Fresnel reflectance: F0 + (1 − F0)(1 − cosθ)⁵.
+/// @param f0 the reflectance at normal incidence, per channel in [0, 1]. @param cosTheta |cos| of the angle between
+/// the direction and the (micro)normal, in [0, 1].
+Color schlickFresnel(const Color& f0, Real cosTheta);
+
+/// The GGX normal distribution D(h) = α² / (π ((α² − 1) cos²θh + 1)²), per steradian of microfacet normals; its
+/// projected area integrates to 1: ∫ D(h) cosθh dh = 1. @param h unit microfacet normal (local frame; 0 below the
+/// surface). @param alpha α in (0, 1].
+Real ggxD(const Vec3& h, Real alpha);
+/// Smith's Λ for GGX, Λ(w) = (√(1 + α² tan²θ) − 1)/2, the masking function's auxiliary. @param w unit direction.
+/// @param alpha α in (0, 1].
+Real ggxLambda(const Vec3& w, Real alpha);
+/// The masking function G1(w) = 1/(1 + Λ(w)): the share of the microsurface seen from w that is not hidden.
+/// @param w unit direction. @param alpha α in (0, 1].
+Real ggxG1(const Vec3& w, Real alpha);
+
+/// A microfacet normal sampled from the distribution of normals visible from `wo` (Heitz 2018, "Sampling the GGX
+/// Distribution of Visible Normals"): density D_wo(h) = G1(wo) max(0, wo·h) D(h) / wo.z.
+/// @param wo unit direction towards the viewer, wo.z > 0. @param alpha α in (0, 1]. @param u uniform in [0, 1)².
+/// @return a unit normal with h.z ≥ 0.
+Vec3 sampleGgxVisibleNormal(const Vec3& wo, Real alpha, Vec2 u);
+
+/// The GGX metal: f = D(h) G2(wo, wi) F(wi·h) / (4 |cosθo| |cosθi|), h the half vector, G2 the height-correlated
+/// Smith term 1/(1 + Λ(wo) + Λ(wi)) and F Schlick's, on wo's side only (a metal seen from inside a sphere is a
+/// metal inside). Reciprocal; its directional albedo is at most 1 (below 1 at high roughness: single scattering
+/// loses the light that bounces between microfacets). With α < kMinGgxAlpha it is the mirror (a delta: 0 here).
+/// @param f0 F0 in [0, 1] per channel. @param alpha α in [0, 1]. @param wo,wi unit directions, local frame.
+Color metalEval(const Color& f0, Real alpha, const Vec3& wo, const Vec3& wi);
+/// The pdf of metalSample: D_wo(h) / (4 |wo·h|) = G1(wo) D(h) / (4 |cosθo|) on wo's side, 0 on the other; 0 for
+/// the mirror (α < kMinGgxAlpha).
+Real metalPdf(Real alpha, const Vec3& wo, const Vec3& wi);
+/// A direction reflected about a visible normal (sampleGgxVisibleNormal); nothing when it falls below the surface
+/// (the pdf keeps that mass, so the estimator stays unbiased). Below kMinGgxAlpha: the mirror direction, as a
+/// delta lobe with weight F(cosθo).
+std::optional<BsdfSample> metalSample(const Color& f0, Real alpha, const Vec3& wo, Vec2 u);
+
 // ---- A material's BSDF ---------------------------------------------------------------------------------------
 
-/// f(wo, wi) of material `m` (local frame); 0 for the delta lobes of mirror and glass.
+/// f(wo, wi) of material `m` (local frame); 0 for the delta lobes of mirror, glass and a smooth metal.
 Color bsdfEval(const Material& m, const Vec3& wo, const Vec3& wi);
-/// The pdf with which bsdfSample chooses wi (local frame); 0 for mirror and glass.
+/// The pdf with which bsdfSample chooses wi (local frame); 0 for mirror, glass and a smooth metal.
 Real bsdfPdf(const Material& m, const Vec3& wo, const Vec3& wi);
 /// Samples wi for material `m` (local frame). @param m the material. @param wo unit direction towards the viewer.
 /// @param u uniform in [0, 1)² (the direction).

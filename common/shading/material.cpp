@@ -9,6 +9,7 @@ const char* materialTypeName(MaterialType type)
   case MaterialType::Mirror: return "mirror";
   case MaterialType::Glass: return "glass";
   case MaterialType::Glossy: return "glossy";
+  case MaterialType::Metal: return "metal";
   }
   return "unknown";
 }

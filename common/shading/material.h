@@ -14,9 +14,12 @@ enum class MaterialType {
   Mirror,  ///< Ideal specular reflection, tinted by `color`.
   Glass,   ///< Ideal dielectric: Fresnel-weighted reflection and refraction with index `ior`, tinted by `color`.
   Glossy,  ///< Rough reflection, `roughness` in (0, 1]; `color` is the specular albedo.
+  /// A rough conductor: the GGX (Trowbridge–Reitz) microfacet BRDF with α = `roughness` in [0, 1], and Schlick's
+  /// Fresnel with `color` the reflectance at normal incidence F0 (chapter 11).
+  Metal,
 };
 
-/// The name a scene file uses for a material type ("diffuse", "mirror", "glass", "glossy").
+/// The name a scene file uses for a material type ("diffuse", "mirror", "glass", "glossy", "metal").
 const char* materialTypeName(MaterialType type);
 
 /// A material. Colours are linear RGB reflectances in [0, 1]; emission is radiance (≥ 0, unbounded).
@@ -26,7 +29,7 @@ struct Material {
   Color color{Real(0.8)};                   ///< Reflectance / tint per channel, in [0, 1].
   Color emission{0};                        ///< Emitted radiance Le, ≥ 0 per channel; non-zero makes an area light.
   Real ior = Real(1.5);                     ///< Index of refraction (glass), ≥ 1, relative to the outside medium.
-  Real roughness = Real(0.3);               ///< Roughness (glossy), in (0, 1].
+  Real roughness = Real(0.3);               ///< Roughness: glossy's in (0, 1]; metal's GGX α in [0, 1].
 
   /// True when the surface emits light.
   bool isEmissive() const { return emission.r > 0 || emission.g > 0 || emission.b > 0; }

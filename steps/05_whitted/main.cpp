@@ -47,9 +47,9 @@ Color trace(const Scene& scene, const Ray& ray, Sampler& sampler, int depthLeft)
     return scene.background;
   const Material& m = scene.materials[std::size_t(hit->material)];
 
-  // Diffuse surfaces (and glossy ones, taken as diffuse): chapter 4's local shading, ambient plus Lambert's law
-  // for each light, with the shadow ray now letting light through glass.
-  if (m.type == MaterialType::Diffuse || m.type == MaterialType::Glossy) {
+  // Diffuse surfaces (and glossy and metal ones, taken as diffuse): chapter 4's local shading, ambient plus
+  // Lambert's law for each light, with the shadow ray now letting light through glass.
+  if (m.type == MaterialType::Diffuse || m.type == MaterialType::Glossy || m.type == MaterialType::Metal) {
     const Vec3 N = facingNormal(*hit, ray.direction);
     Color I = m.emission + scene.ambient * m.color;
     for (const PointLight& light : scene.lights) {
@@ -89,7 +89,8 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = "step05_whitted",
                             .defaultScene = "whitted.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground |
-                                    kUsesEmission | kUsesMirror | kUsesGlass | kUsesMaxDepth | kShadowRays,
+                                    kUsesEmission | kUsesMirror | kUsesGlass | kUsesMaxDepth | kShadowRays |
+                                    kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 16,
                             .defaultMaxDepth = 10};

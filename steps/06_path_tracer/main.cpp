@@ -75,7 +75,8 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = "step06_path_tracer",
                             .defaultScene = "cornell.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesBackground | kUsesEmission | kUsesMirror |
-                                    kUsesGlass | kUsesGlossy | kUsesMaxDepth,
+                                    kUsesGlass | kUsesGlossy | kUsesMaxDepth | kUsesMetal |
+                                    kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 128,
                             .defaultMaxDepth = -1,

@@ -58,7 +58,7 @@ Color trace(const LightSampler& lights, bool sampleLights, const Scene& scene, c
       const Vec2 uDirection = sampler.next2D();
       // (The plan: with no light to sample, skip it; the numbers are drawn all the same, so the path is unchanged.)
       if (const std::optional<LightSample> ls =
-              sampleLights ? lights.sample(hit->point, uLight, uDirection) : std::nullopt) {
+              sampleLights ? lights.sample(hit->point, uLight, uDirection, hit->time) : std::nullopt) {
         const Vec3 wi = frame.toLocal(ls->wi);
         const Color f = bsdfEval(m, wo, wi);
         if (f != Color(0) && lightVisible(scene, *hit, *ls))
@@ -96,7 +96,8 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = "step07_light_sampling",
                             .defaultScene = "cornell.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
-                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights,
+                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights |
+                                    kUsesMetal | kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
                             .defaultMaxDepth = -1,

@@ -63,7 +63,7 @@ Color trace(const LightSampler& lights, bool sampleLights, Heuristic heuristic, 
         L += beta * m.emission;
       else
         L += beta * m.emission *
-             misWeight(heuristic, bsdfPdfPrev, lights.pdf(previousPoint, hit->primitive, hit->point));
+             misWeight(heuristic, bsdfPdfPrev, lights.pdf(previousPoint, hit->primitive, hit->point, hit->time));
     }
     if (bounce == maxDepth)
       break;
@@ -77,7 +77,7 @@ Color trace(const LightSampler& lights, bool sampleLights, Heuristic heuristic, 
       const Vec2 uDirection = sampler.next2D();
       // (The plan: with no light to sample, skip it; the numbers are drawn all the same, so the path is unchanged.)
       if (const std::optional<LightSample> ls =
-              sampleLights ? lights.sample(hit->point, uLight, uDirection) : std::nullopt) {
+              sampleLights ? lights.sample(hit->point, uLight, uDirection, hit->time) : std::nullopt) {
         const Vec3 wi = frame.toLocal(ls->wi);
         const Color f = bsdfEval(m, wo, wi);
         if (f != Color(0) && lightVisible(scene, *hit, *ls)) {
@@ -119,7 +119,8 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = "step08_mis",
                             .defaultScene = "mis.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
-                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights,
+                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights |
+                                    kUsesMetal | kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
                             .defaultMaxDepth = -1,

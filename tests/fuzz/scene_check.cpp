@@ -119,10 +119,12 @@ std::string checkSceneText(std::string_view text)
       return "a sphere with a bad centre or radius was accepted";
     if (s.material < 0 || std::size_t(s.material) >= scene.materials.size())
       return "a sphere's material index is out of range";
+    if (!finite(s.velocity) || !finite(s.center + s.velocity))
+      return "a sphere with a bad velocity was accepted";
   }
   for (const Material& m : scene.materials)
     if (!nonNegative(m.color) || !nonNegative(m.emission) || !(m.ior >= 1) || !std::isfinite(m.ior) ||
-        !(m.roughness > 0 && m.roughness <= 1))
+        !(m.roughness >= 0 && m.roughness <= 1) || (m.type != MaterialType::Metal && !(m.roughness > 0)))
       return "material '" + m.name + "' has a value out of range";
   for (const PointLight& l : scene.lights)
     if (!finite(l.position) || !nonNegative(l.intensity))
@@ -134,6 +136,8 @@ std::string checkSceneText(std::string_view text)
     return "an image size out of range was accepted";
   if (!(c.vfovDeg > 0 && c.vfovDeg < 180))
     return "a field of view out of range was accepted";
+  if (!(c.aperture >= 0 && std::isfinite(c.aperture)) || !(c.focus >= 0 && std::isfinite(c.focus)))
+    return "a lens with a bad aperture or focus was accepted";
   if (!finite(c.eye) || !finite(c.basis.u) || !finite(c.basis.v) || !finite(c.basis.w))
     return "a camera with a non-finite eye or basis was accepted";
   const Real tolerance = Real(1e-3);

@@ -2,6 +2,7 @@
 // Fixed seeds, so each run draws the same numbers; the significance of each chi-square test is 1%.
 #include "shading/bsdf.h"
 #include "chi_square.h"
+#include "estimate.h"
 #include "core/frame.h"
 #include "core/rng.h"
 #include "core/sampling.h"
@@ -23,25 +24,6 @@ Vec3 polar(double theta) { return Vec3(Real(std::sin(theta)), 0, Real(std::cos(t
 
 // Relative tolerance of one evaluation in the renderer's scalar.
 const double kRel = sizeof(Real) == 4 ? 1e-5 : 1e-12;
-
-// Mean and standard error of a Monte Carlo estimate.
-struct Estimate {
-  double mean = 0;
-  double stdError = 0;
-};
-
-template <class F> Estimate estimate(int n, std::uint64_t seed, F&& sampleValue)
-{
-  Sampler rng(seed, 1, 2, 3);
-  double sum = 0, sumSq = 0;
-  for (int i = 0; i < n; ++i) {
-    const double v = sampleValue(rng);
-    sum += v;
-    sumSq += v * v;
-  }
-  const double mean = sum / n;
-  return Estimate{mean, std::sqrt(std::max(0.0, sumSq / n - mean * mean) / (n - 1))};
-}
 
 } // namespace
 
