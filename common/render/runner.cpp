@@ -180,7 +180,11 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
   return runChapter(argc, argv, chapter, TraceFactory([&trace](const Scene&) { return trace; }));
 }
 
-int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
+namespace {
+
+// runChapter and runSplattingChapter: one of the two factories is set.
+int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory* makeTrace,
+                  const SplatTraceFactory* makeSplatTrace)
 {
   const std::string name = chapter.binary;
   // One process, or the ranks of an MPI job: every rank goes through the same steps, only rank 0 speaks and writes.
@@ -271,8 +275,8 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     // Render, with Ctrl-C and SIGTERM turned into "stop after this pass" (until the images are written).
     const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
-    const TraceFunction trace = makeTrace(scene);
-    RenderResult result = ranks.render(scene, camera, settings, trace);
+    RenderResult result = makeSplatTrace ? ranks.render(scene, camera, settings, (*makeSplatTrace)(scene))
+                                         : ranks.render(scene, camera, settings, (*makeTrace)(scene));
     std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
     if (chapter.besideTrace) {
       RenderSettings same = settings;
@@ -371,6 +375,18 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     std::cerr << name << ": internal error: " << e.what() << "; nothing was written (please report this)\n";
   }
   return ranks.finish(1);
+}
+
+} // namespace
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
+{
+  return runAnyChapter(argc, argv, chapter, &makeTrace, nullptr);
+}
+
+int runSplattingChapter(int argc, char** argv, const ChapterInfo& chapter, const SplatTraceFactory& makeTrace)
+{
+  return runAnyChapter(argc, argv, chapter, nullptr, &makeTrace);
 }
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace)

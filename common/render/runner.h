@@ -53,5 +53,10 @@ std::optional<double> applyPlanOptions(const std::string& name, const Scene& sce
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace);
 /// The same, for a chapter whose trace function is made per scene by `makeTrace` (called once, see TraceFactory).
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace);
+/// Makes a chapter's estimator that splats (SplatTraceFunction) for a loaded scene, as TraceFactory.
+using SplatTraceFactory = std::function<SplatTraceFunction(const Scene& scene)>;
+/// The same, for a chapter whose estimator splats (chapter 13), made per scene by `makeTrace`: rendered pass by
+/// pass (render_loop.h). Not with ChapterInfo::besideTrace or ChapterInfo::adaptiveSampling.
+int runSplattingChapter(int argc, char** argv, const ChapterInfo& chapter, const SplatTraceFactory& makeTrace);
 
 } // namespace raylife

@@ -8,6 +8,7 @@
 // by clang from the same seeds, so 1% was a coin toss between compilers). The bias detector is the image mean. In total, the image mean of each channel must agree within
 // 4 standard errors (|z| ≤ 4, two-sided significance 6·10⁻⁵). A control shows the test catches a 5% bias.
 #include "../analytic/run_chapter.h"
+#include "z_test.h"
 #include "polygon_irradiance.h"
 
 #include "render/image_compare.h"
@@ -29,64 +30,8 @@ using namespace raylife::test;
 
 namespace {
 
-constexpr double kCritical = 3.29;
-constexpr double kMaxFailedShare = 0.02;
-constexpr double kMaxTotalZ = 4;
-constexpr double kVarianceFloor = 1e-10; // keeps z defined where both images know a pixel exactly (black)
-
 const std::string kScenes = RAYLIFE_SCENES;
 const std::string kGolden = RAYLIFE_LIGHTS_GOLDEN;
-
-struct Verdict {
-  double failedShare = 0; // share of channels with |z| > kCritical
-  double worstTotalZ = 0; // the channel whose image mean differs most, in standard errors
-  bool passed() const { return failedShare <= kMaxFailedShare && std::abs(worstTotalZ) <= kMaxTotalZ; }
-};
-
-// Compares two Monte Carlo images (or an image and an expectation with zero variance) over the pixels `use` marks,
-// per pixel channel, or per channel of blocks of block × block pixels (z of the block's summed difference).
-Verdict compare(const Image& a, const Image& varA, const Image& b, const Image& varB, const std::string& what,
-                const std::vector<bool>* use = nullptr, int block = 1, double systematic = 0)
-{
-  REQUIRE(a.width == b.width);
-  REQUIRE(a.height == b.height);
-  Verdict v;
-  std::size_t failed = 0, tests = 0;
-  double sumDiff[3] = {0, 0, 0}, sumVar[3] = {0, 0, 0}, sumB[3] = {0, 0, 0};
-  for (int by = 0; by < a.height; by += block)
-    for (int bx = 0; bx < a.width; bx += block)
-      for (int c = 0; c < 3; ++c) {
-        double diff = 0, var = 0;
-        int pixels = 0;
-        for (int y = by; y < std::min(by + block, a.height); ++y)
-          for (int x = bx; x < std::min(bx + block, a.width); ++x) {
-            if (use && !(*use)[std::size_t(y * a.width + x)])
-              continue;
-            diff += double(a.at(x, y, c)) - double(b.at(x, y, c));
-            sumB[c] += std::abs(double(b.at(x, y, c)));
-            var += double(varA.at(x, y, c)) + double(varB.at(x, y, c)) + kVarianceFloor;
-            ++pixels;
-          }
-        if (pixels == 0)
-          continue;
-        failed += !(std::abs(diff / std::sqrt(var)) <= kCritical);
-        ++tests;
-        sumDiff[c] += diff;
-        sumVar[c] += var;
-      }
-  v.failedShare = double(failed) / double(tests);
-  for (int c = 0; c < 3; ++c) {
-    // A known systematic error (relative to the image mean) is allowed before the difference counts against z.
-    const double excess = std::max(0.0, std::abs(sumDiff[c]) - systematic * sumB[c]);
-    const double z = std::copysign(excess, sumDiff[c]) / std::sqrt(sumVar[c]);
-    if (std::abs(z) > std::abs(v.worstTotalZ))
-      v.worstTotalZ = z;
-  }
-  std::cout << what << ": failed " << (block == 1 ? "pixel channels " : "block channels ") << 100 * v.failedShare
-            << "% of " << tests << " (bound " << 100 * kMaxFailedShare
-            << "%), worst channel's image mean off by z = " << v.worstTotalZ << " (bound " << kMaxTotalZ << ")\n";
-  return v;
-}
 
 ChapterRender run(const std::string& binary, const std::string& scene, const std::string& args, const std::string& tag)
 {
