@@ -107,10 +107,6 @@ Real primaryRayPdf(const Camera& camera, Real cosAtCamera)
   return toPlane * toPlane / cosAtCamera;
 }
 
-// Emission from both faces of an emitter: a side chosen with probability ½, a direction cosine-weighted on it.
-// The density of the emitted direction (per steradian, at |cos| `cosLight` to the surface).
-Real emissionDirectionPdf(Real cosLight) { return Real(0.5) * cosLight * kInvPi; }
-
 // The radiance `trace` and the splats find, with what they need.
 struct Context {
   const Scene& scene;
@@ -121,6 +117,29 @@ struct Context {
   int maxEdges;      // the longest path in edges (--max-depth + 1)
   Real lightPaths;   // light subpaths per pass: one per pixel
 };
+
+// A light subpath leaves its emitter from a face chosen with this probability, in a direction cosine-weighted on it:
+// a triangle emits from both faces (½ each); a sphere's light subpaths leave from its outside only, since its inside
+// is seen only by a camera inside it, where s = 0 and s = 1 find that light alone (a weight then knows that no light
+// subpath could make the path: the probability is 0). `cosOutward`: the direction's cosine with the surface's
+// outward (sphere) or front (triangle) normal.
+Real faceProbability(const Scene& scene, int primitive, Real cosOutward)
+{
+  if (std::size_t(primitive) < scene.spheres.size())
+    return cosOutward > 0 ? 1 : 0;
+  return Real(0.5);
+}
+
+// The density with which a light subpath starts at `point` on emitter `primitive` and leaves along `direction`
+// (unit, world): the emitter's choice over its area, times the face's probability and the cosine-weighted direction's
+// density (per unit area and per steradian).
+Real emissionPdf(const Context& c, int primitive, const Vec3& point, const Vec3& direction)
+{
+  const Real cosOutward = glm::dot(c.lights.normalAt(primitive, point), direction);
+  return c.lights.probability(primitive) / c.lights.area(primitive) *
+         faceProbability(c.scene, primitive, cosOutward) * std::abs(cosOutward) * kInvPi;
+}
+
 
 // Russian roulette on either subpath after kRouletteMinBounces bounces: true when the path ends. (Its probabilities
 // are left out of the MIS weights, as pbrt does: the weights still sum to 1 over the strategies, so nothing is biased.)
@@ -177,16 +196,18 @@ std::vector<LightVertex> traceLightSubpath(const Context& c)
   const std::optional<EmitterPoint> y0 = c.lights.sampleEmitterPoint(uLight, uPoint);
   if (!y0 || c.maxEdges < 2) // (y₀ alone makes no path: the eye does not see the light's own point through it)
     return vertices;
-  const Vec3 n = uSide < Real(0.5) ? y0->hit.normal : -y0->hit.normal;
+  const bool back = faceProbability(c.scene, y0->hit.primitive, -1) > 0 && uSide < Real(0.5);
+  const Vec3 n = back ? -y0->hit.normal : y0->hit.normal;
   const Vec3 local = sampleCosineHemisphere(uDirection);
   if (!(local.z > 0))
     return vertices;
   const Real cosLight = local.z;
-  const Real emissionPdfW = y0->pdfArea * emissionDirectionPdf(cosLight); // the point and the direction
+  const Vec3 direction = Frame::fromNormal(n).toWorld(local);
+  const Real emissionPdfW = emissionPdf(c, y0->hit.primitive, y0->hit.point, direction); // the point and direction
   SubpathState state;
   state.beta = y0->Le * cosLight / emissionPdfW;
   state.dVC = mis(cosLight / emissionPdfW);
-  Ray ray = spawnRay(y0->hit, Frame::fromNormal(n).toWorld(local));
+  Ray ray = spawnRay(y0->hit, direction);
 
   for (int s = 2;; ++s) {
     const std::optional<Hit> hit = c.scene.intersect(ray);
@@ -234,8 +255,7 @@ Real weightHitLight(const Context& c, const SubpathState& state, const Hit& hit,
 {
   const Vec3 d = hit.point - previous;
   const Real directPdfA = c.lights.pdf(previous, hit.primitive, hit.point) * cosLight / glm::dot(d, d);
-  const Real emissionPdfW =
-      c.lights.probability(hit.primitive) / c.lights.area(hit.primitive) * emissionDirectionPdf(cosLight);
+  const Real emissionPdfW = emissionPdf(c, hit.primitive, hit.point, -d / std::sqrt(glm::dot(d, d)));
   return 1 / (1 + mis(directPdfA) * state.dVCM + mis(emissionPdfW) * state.dVC);
 }
 
@@ -255,9 +275,15 @@ Color connectToLight(const Context& c, const SubpathState& state, const Hit& hit
     return Color(0);
   Real weight = 1; // a point light: only this strategy finds it
   if (!ls->delta) {
-    const Real cosAtLight = std::abs(glm::dot(c.lights.normalAt(ls->primitive, ls->target), ls->wi));
-    const Real emissionPdfW =
-        c.lights.probability(ls->primitive) / c.lights.area(ls->primitive) * emissionDirectionPdf(cosAtLight);
+    // The light's point is where the shadow ray meets it (LightSample::target may be the shaded point itself when
+    // that lies on the emitter, as on the inside of a glowing sphere).
+    const Ray toLight = spawnRay(hit, ls->wi);
+    const std::optional<Real> along = c.scene.intersectPrimitive(toLight, ls->primitive);
+    if (!along)
+      return Color(0);
+    const Vec3 y0 = toLight.at(*along);
+    const Real cosAtLight = std::abs(glm::dot(c.lights.normalAt(ls->primitive, y0), ls->wi));
+    const Real emissionPdfW = emissionPdf(c, ls->primitive, y0, -ls->wi);
     // Against s = 0 (the BSDF's direction) and every s ≥ 2 (the light subpath from the same point, its ratio made
     // of solid-angle densities at both ends, whose distance terms cancel).
     const Real wLight = mis(bsdfPdf(m, wo, wi) / ls->pdf);
