@@ -55,12 +55,13 @@ struct Strategies {
 // The power heuristic's exponent applied to a ratio of pdfs: every weight below is 1 / Σ of these.
 Real mis(Real ratio) { return ratio * ratio; }
 
-// A subpath as it grows, and what its last vertex needs for the weights. For a vertex x_i reached from x_{i−1}:
-//   dVCM = p_conn(x_{i−1}) / p(x_{i−1} → x_i) stuff of Georgiev's eq. (31-32): the ratio the strategy that connects
-//          at x_{i−1} brings, made into an area density at x_i once its distance and cosine are known;
-//   dVC  = the sum over every earlier strategy of its ratio, carried from vertex to vertex.
-// Both are sums of mis(ratio) terms, so the weight of a connection is 1 / (1 + wLight + wCamera), each side's
-// sum made of its running sums in O(1).
+// A subpath as it grows, and what its last vertex x_i (reached from x_{i−1}) needs for the weights (Georgiev's
+// eqs. 31-33, without the merging):
+//   dVCM: the ratio the strategy that connects at x_{i−1} brings (its density of x_{i−1} over this subpath's), made
+//         a density per unit area at x_i once the edge's length and cosine are known;
+//   dVC:  the sum of the ratios of every strategy further back, carried from vertex to vertex.
+// Both are sums of mis(ratio) terms, so the weight of a connection is 1 / (1 + wLight + wCamera), each side's sum
+// made of its running sums in O(1).
 struct SubpathState {
   Color beta{1};  // throughput: the path's contribution so far over its pdf
   Real dVCM = 0;  // see above
@@ -185,7 +186,7 @@ void connectToCamera(const Context& c, const LightVertex& v)
 
 /// [lightSubpath]
 // The light subpath: a light chosen by power, a point uniform on its area, a cosine-weighted direction from one of
-// its faces, then bounces as the camera subpath makes them. Every non-delta vertex is kept for the connections and
+// its faces (faceProbability), then bounces as the camera subpath makes them. Every non-delta vertex is kept for the connections and
 // joined to the eye at once (t = 1).
 std::vector<LightVertex> traceLightSubpath(const Context& c)
 {
