@@ -186,8 +186,8 @@ void connectToCamera(const Context& c, const LightVertex& v)
 
 /// [lightSubpath]
 // The light subpath: a light chosen by power, a point uniform on its area, a cosine-weighted direction from one of
-// its faces (faceProbability), then bounces as the camera subpath makes them. Every non-delta vertex is kept for the connections and
-// joined to the eye at once (t = 1).
+// its faces (faceProbability), then bounces as the camera subpath makes them. Every non-delta vertex is kept for
+// the connections and joined to the eye at once (t = 1).
 std::vector<LightVertex> traceLightSubpath(const Context& c)
 {
   std::vector<LightVertex> vertices;
