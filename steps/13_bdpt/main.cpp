@@ -31,6 +31,7 @@
 #include <cstdio>
 #include <cstring>
 #include <iostream>
+#include <optional>
 #include <vector>
 
 using namespace raylife;
@@ -155,6 +156,23 @@ bool roulette(SubpathState& state, int bounce, Sampler& sampler)
   return false;
 }
 
+// Both subpaths go on alike from `hit` (wo, local: towards where the subpath came from): the BSDF samples the next
+// direction, the running sums follow it, Russian roulette may end the subpath after `bounce` bounces. Returns the
+// next ray, or nothing when the subpath ends.
+std::optional<Ray> scatter(const Context& c, SubpathState& state, const Hit& hit, const Frame& frame, const Vec3& wo,
+                           int bounce)
+{
+  const Material& m = c.scene.materials[std::size_t(hit.material)];
+  const Real uChoice = c.sampler.next1D();
+  const std::optional<BsdfSample> bs = bsdfSample(m, wo, c.sampler.next2D(), uChoice);
+  if (!bs)
+    return std::nullopt;
+  leave(state, *bs, bs->specular ? bs->pdf : bsdfPdf(m, bs->wi, wo));
+  if (state.beta == Color(0) || roulette(state, bounce, c.sampler))
+    return std::nullopt;
+  return spawnRay(hit, frame.toWorld(bs->wi));
+}
+
 /// [lightTracing]
 // t = 1: the light vertex `v` joined to the eye. Its light lands in the pixel it projects to, divided by the
 // number of light subpaths of the pass, since every one of them could have splatted there.
@@ -232,17 +250,12 @@ std::vector<LightVertex> traceLightSubpath(const Context& c)
     }
     if (s >= c.maxEdges)
       break;
-    // Scatter: the light path samples the BSDF with wo the direction its light came from.
+    // The light path samples the BSDF with wo the direction its light came from.
     const Frame frame = Frame::fromNormal(hit->normal);
-    const Vec3 wo = frame.toLocal(-ray.direction);
-    const Real uChoice = c.sampler.next1D();
-    const std::optional<BsdfSample> bs = bsdfSample(m, wo, c.sampler.next2D(), uChoice);
-    if (!bs)
+    const std::optional<Ray> next = scatter(c, state, *hit, frame, frame.toLocal(-ray.direction), s - 2);
+    if (!next)
       break;
-    leave(state, *bs, bs->specular ? bs->pdf : bsdfPdf(m, bs->wi, wo));
-    if (state.beta == Color(0) || roulette(state, s - 2, c.sampler))
-      break;
-    ray = spawnRay(*hit, frame.toWorld(bs->wi));
+    ray = *next;
   }
   return vertices;
 }
@@ -367,15 +380,11 @@ Color trace(const Context& c, const Ray& primary)
         if (v.s + t - 1 <= c.maxEdges)
           L += connectVertices(c, state, *hit, frame, wo, v, t);
     }
-    const Real uChoice = c.sampler.next1D();
-    const std::optional<BsdfSample> bs = bsdfSample(m, wo, c.sampler.next2D(), uChoice);
-    if (!bs)
-      break;
-    leave(state, *bs, bs->specular ? bs->pdf : bsdfPdf(m, bs->wi, wo));
-    if (state.beta == Color(0) || roulette(state, t - 2, c.sampler))
+    const std::optional<Ray> next = scatter(c, state, *hit, frame, wo, t - 2);
+    if (!next)
       break;
     previous = hit->point;
-    ray = spawnRay(*hit, frame.toWorld(bs->wi));
+    ray = *next;
   }
   return L;
 }
