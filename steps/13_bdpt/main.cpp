@@ -142,7 +142,6 @@ Real emissionPdf(const Context& c, int primitive, const Vec3& point, const Vec3&
          faceProbability(c.scene, primitive, cosOutward) * std::abs(cosOutward) * kInvPi;
 }
 
-
 // Russian roulette on either subpath after kRouletteMinBounces bounces: true when the path ends. (Its probabilities
 // are left out of the MIS weights, as pbrt does: the weights still sum to 1 over the strategies, so nothing is biased.)
 bool roulette(SubpathState& state, int bounce, Sampler& sampler)

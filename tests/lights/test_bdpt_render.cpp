@@ -8,9 +8,11 @@
 
 #include <catch2/catch.hpp>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -66,11 +68,11 @@ TEST_CASE("the test can fail: chapter 13 without its splats (t = 1 left out) is 
 {
   // Every strategy but light tracing, each with its weight: the weights of the missing strategy are missing light.
   const std::string scene = kScenes + "/caustics.json", size = "--width 32 --height 24 --max-depth 2 ";
-  const ChapterRender full = run(RAYLIFE_STEP13, scene, size + "--spp 64 --seed 5", "bdpt_full");
+  const ChapterRender full = run(RAYLIFE_STEP13, scene, size + "--spp 32 --seed 5", "bdpt_full");
   Image partial(full.mean.width, full.mean.height), variance = partial;
   for (const auto& [s, t] : {std::pair{0, 2}, {0, 3}, {1, 2}, {0, 4}, {1, 3}, {2, 2}}) {
     const ChapterRender r = run(RAYLIFE_STEP13, scene,
-                                size + "--spp 64 --seed 6 --strategy " + std::to_string(s) + "," + std::to_string(t),
+                                size + "--spp 32 --seed 6 --strategy " + std::to_string(s) + "," + std::to_string(t),
                                 "bdpt_part");
     for (std::size_t i = 0; i < partial.pixels.size(); ++i) {
       partial.pixels[i] += r.mean.pixels[i];
@@ -189,4 +191,20 @@ TEST_CASE("each strategy alone - unweighted - renders the same image of the path
     }
   }
   fs::remove(path);
+}
+
+TEST_CASE("a bad --strategy or --unweighted alone exits with status 2 and writes nothing")
+{
+  namespace fs = std::filesystem;
+  const fs::path out = fs::temp_directory_path() / ("raylife_bdpt_bad_" + std::to_string(::getpid()) + ".png");
+  for (const char* args : {"--strategy 1", "--strategy 1,0", "--strategy -1,2", "--strategy 1,2x",
+                           "--strategy a,b", "--unweighted", "--unweighted --strategy"}) {
+    const std::string command = "'" + std::string(RAYLIFE_STEP13) + "' --width 8 --height 6 --quiet -o '" +
+                                out.string() + "' " + std::string(args) + " 2>/dev/null";
+    const int status = std::system(command.c_str());
+    INFO(args);
+    CHECK(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 2);
+    CHECK_FALSE(fs::exists(out));
+  }
 }
