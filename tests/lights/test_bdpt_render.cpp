@@ -38,7 +38,8 @@ ChapterRender run(const std::string& binary, const std::string& scene, const std
 void checkAgainstChapter6(const std::string& scene, const std::string& size, int spp6, int spp13,
                           const std::string& tag, int block)
 {
-  const ChapterRender c6 = run(RAYLIFE_STEP06, scene, size + " --spp " + std::to_string(spp6) + " --seed 61", tag + "6");
+  const ChapterRender c6 =
+      run(RAYLIFE_STEP06, scene, size + " --spp " + std::to_string(spp6) + " --seed 61", tag + "6");
   const ChapterRender c13 =
       run(RAYLIFE_STEP13, scene, size + " --spp " + std::to_string(spp13) + " --seed 131", tag + "13");
   CHECK(compare(c13.mean, c13.variance, c6.mean, c6.variance, tag + ": chapter 13 against chapter 6", nullptr, block)
