@@ -209,3 +209,10 @@ TEST_CASE("a bad --strategy or --unweighted alone exits with status 2 and writes
     CHECK_FALSE(fs::exists(out));
   }
 }
+
+TEST_CASE("unbiased: on the original Cornell box (triangles - a quad lamp) chapter 13 renders chapter 6's image")
+{
+  // Triangle lights: light subpaths leave either face of the lamp's two triangles. Per 2 x 2 block, as chapters 7
+  // and 8 are compared on this box: chapter 6 finds the small lamp rarely.
+  checkAgainstChapter6(kScenes + "/cornell_original.json", "--width 32 --height 32", 2048, 64, "bdpt_original", 2);
+}
