@@ -136,7 +136,7 @@ void checkDeclarations(const std::vector<ChapterOption>& chapterOptions)
     if (o.kind == OptionKind::Choice && o.choices.empty())
       throw std::logic_error("the chapter option " + o.name + " is a choice without words");
     try {
-      if (o.kind != OptionKind::Flag)
+      if (o.kind != OptionKind::Flag && !o.defaultValue.empty()) // (empty: none; the chapter asks given())
         checkChapterValue(o, o.defaultValue);
     } catch (const UsageError& e) {
       throw std::logic_error(std::string("the default of a chapter option fails its checks: ") + e.what());
@@ -160,7 +160,10 @@ const std::string& ChapterOptions::value(const std::string& name, OptionKind kin
   if (!o || o->kind != kind)
     throw std::logic_error("the chapter reads an option it did not declare (or as another kind): " + name);
   const auto given = given_.find(name);
-  return given != given_.end() ? given->second : o->defaultValue;
+  const std::string& text = given != given_.end() ? given->second : o->defaultValue;
+  if (kind != OptionKind::Flag && text.empty())
+    throw std::logic_error("the chapter reads " + name + ", which has no default and was not given (ask given())");
+  return text;
 }
 
 bool ChapterOptions::flag(const std::string& name) const
@@ -377,7 +380,8 @@ std::string usageText(const UsageInfo& info)
       if (!metavar(o).empty())
         left += " " + metavar(o);
       left += left.size() < 21 ? std::string(21 - left.size(), ' ') : "\n" + std::string(21, ' ');
-      text += left + o.help + (o.kind == OptionKind::Flag ? "" : " (default: " + o.defaultValue + ")") + "\n";
+      text += left + o.help +
+              (o.kind == OptionKind::Flag || o.defaultValue.empty() ? "" : " (default: " + o.defaultValue + ")") + "\n";
     }
   }
   if (!info.reads.empty())

@@ -31,7 +31,8 @@ struct ChapterOption {
   OptionKind kind = OptionKind::Flag; ///< What value it takes.
   std::string help = {};              ///< One line for --help: what it does.
   /// The value when the option is not given, spelt as on the command line (it must pass the same checks);
-  /// ignored for a flag, which is off unless given.
+  /// ignored for a flag, which is off unless given. Empty: none (the chapter asks ChapterOptions::given first;
+  /// reading the value of an option with none and not given throws std::logic_error).
   std::string defaultValue = {};
   std::vector<std::string> choices = {};                       ///< Choice: the words allowed.
   double min = -std::numeric_limits<double>::max();           ///< Integer, Number, IntegerList: the least value.

@@ -17,4 +17,16 @@ RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSetti
   return raylife::render(scene, camera, settings, trace);
 }
 
+RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSettings settings,
+                           const SplatTraceFunction& trace)
+{
+  return raylife::render(scene, camera, settings, trace);
+}
+
+RenderResult Ranks::renderShared(RenderSettings settings,
+                                 const std::function<RenderResult(const RenderSettings&)>& renderShare)
+{
+  return renderShare(settings);
+}
+
 } // namespace raylife

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -53,6 +54,10 @@ public:
   /// was; `samples` and the film are the whole job's on rank 0, this rank's own elsewhere. Progress is drawn by
   /// rank 0 only. @throws RanksStopped when a rank failed.
   RenderResult render(const Scene& scene, const Camera& camera, RenderSettings settings, const TraceFunction& trace);
+  /// The same for an estimator that splats (chapter 13): a share of the sample indices holds whole passes, so each
+  /// rank's film holds every splat of its passes and the shares sum exactly as well.
+  RenderResult render(const Scene& scene, const Camera& camera, RenderSettings settings,
+                      const SplatTraceFunction& trace);
 
   /// Seconds the last render() spent combining the ranks' films (0 for one process).
   double combineSeconds() const { return combineSeconds_; }
@@ -62,6 +67,9 @@ public:
   int finish(int status) { return checkpoint(status); }
 
 private:
+  // Both render()s: `renderShare` renders the settings' share on this rank; the shares are then combined.
+  RenderResult renderShared(RenderSettings settings,
+                            const std::function<RenderResult(const RenderSettings&)>& renderShare);
   struct Mpi; // the MPI state (ranks_mpi.cpp)
   int rank_ = 0;
   int size_ = 1;

@@ -221,9 +221,23 @@ int Ranks::checkpoint(int status, std::uint64_t sceneHash, std::uint64_t setting
 RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSettings settings,
                            const TraceFunction& trace)
 {
+  return renderShared(settings,
+                      [&](const RenderSettings& share) { return raylife::render(scene, camera, share, trace); });
+}
+
+RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSettings settings,
+                           const SplatTraceFunction& trace)
+{
+  return renderShared(settings,
+                      [&](const RenderSettings& share) { return raylife::render(scene, camera, share, trace); });
+}
+
+RenderResult Ranks::renderShared(RenderSettings settings,
+                                 const std::function<RenderResult(const RenderSettings&)>& renderShare)
+{
   combineSeconds_ = 0;
   if (size_ == 1)
-    return raylife::render(scene, camera, settings, trace);
+    return renderShare(settings);
 
   // This rank's share: a run of the sample indices of --spp (or of --samples' range), or blocks in turn for a
   // time budget.
@@ -237,7 +251,7 @@ RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSetti
     settings.share.ranks = size_;
   }
   settings.progress = settings.progress && root();
-  RenderResult mine = raylife::render(scene, camera, settings, trace);
+  RenderResult mine = renderShare(settings);
   if (const char* kill = std::getenv("RAYLIFE_TEST_KILL_RANK"); kill && std::atoi(kill) == rank_)
     std::raise(SIGKILL); // tests only: a rank that dies before the films are combined
 

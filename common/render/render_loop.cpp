@@ -89,10 +89,49 @@ std::vector<SampleRange> SampleShare::ranges(int taken) const
   return out;
 }
 
-RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
-                    const TraceFunction& trace)
+SplatSums::SplatSums(int width, int height) : words_(std::size_t(width) * std::size_t(height) * 6) {}
+
+void SplatSums::add(std::size_t pixel, const Color& L)
+{
+  if (!Film::holds(L)) {
+    bad_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  for (std::size_t c = 0; c < 3; ++c) {
+    const Fixed128 v = toFixed(double(L[int(c)]), kFilmSumFractionBits);
+    if (v == Fixed128{})
+      continue;
+    std::atomic<std::uint64_t>& lo = words_[pixel * 6 + 2 * c];
+    std::atomic<std::uint64_t>& hi = words_[pixel * 6 + 2 * c + 1];
+    // The low word's carry is known from the value it had just before this add: exact in any interleaving.
+    const std::uint64_t before = lo.fetch_add(v.lo, std::memory_order_relaxed);
+    const std::uint64_t carry = before + v.lo < before ? 1 : 0;
+    if (v.hi + carry)
+      hi.fetch_add(v.hi + carry, std::memory_order_relaxed);
+  }
+}
+
+Color SplatSums::take(std::size_t pixel)
+{
+  Color sum(0);
+  for (std::size_t c = 0; c < 3; ++c) {
+    const Fixed128 f{words_[pixel * 6 + 2 * c].exchange(0, std::memory_order_relaxed),
+                     words_[pixel * 6 + 2 * c + 1].exchange(0, std::memory_order_relaxed)};
+    if (!(f == Fixed128{}))
+      sum[int(c)] = Real(toDouble(f, kFilmSumFractionBits));
+  }
+  return sum;
+}
+
+namespace {
+
+// The render loop of both kinds of estimator: `trace` (one sample, one pixel) or `splatTrace` (one of them is set).
+RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                        const TraceFunction* trace, const SplatTraceFunction* splatTrace)
 {
   const SampleShare& share = settings.share;
+  if (splatTrace && settings.adaptive)
+    throw std::invalid_argument("adaptive sampling cannot stop a pixel that other pixels' samples splat into");
   if (settings.adaptive && (share.range || share.ranks > 1))
     throw std::invalid_argument("adaptive sampling needs every sample of every pixel in one process");
   if (share.range && (!settings.spp || share.range->first < 0 || share.range->count < 0 ||
@@ -109,6 +148,11 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
   const int target = untilTime ? int(kMaxSamplesPerPixel / std::uint32_t(std::max(1, share.ranks)))
                                : settings.spp ? (share.range ? share.range->count : *settings.spp) : 1;
   const int strata = strataPerSide(settings.adaptive ? std::nullopt : settings.spp);
+  // With splats: each pixel's own light in the pass under way, and the splats it has received in it.
+  std::vector<Color> own(splatTrace ? std::size_t(width) * std::size_t(height) : 0);
+  std::optional<SplatSums> splatSums;
+  if (splatTrace)
+    splatSums.emplace(width, height);
 
   const auto start = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
@@ -184,55 +228,109 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
 
     std::uint64_t rays = 0, bad = 0, pixelSamples = 0;
     std::atomic<int> tilesDone{0};
-#pragma omp parallel num_threads(threads) reduction(+ : rays, bad, pixelSamples)
-    {
-      const std::uint64_t raysBefore = rayCount();
+    // One pixel sample: its own random numbers, a film position, the primary ray. (Cook's distributed ray tracing,
+    // chapter 11: a point on the lens and a time in the shutter interval, drawn only where the camera and the scene
+    // have them, so a still pinhole render keeps every random number where it was.)
+    auto primaryRay = [&](int x, int y, int s, Sampler& sampler, const PixelSequence& sequence) {
+      const Vec2 offset = pixelOffset(settings.pixelSampling, s, strata, sampler, sequence);
+      const Vec2 film = Vec2(Real(x), Real(y)) + offset;
+      Ray ray = settings.lens ? camera.ray(film, sampler.next2D()) : camera.ray(film);
+      if (settings.motion)
+        ray.time = sampler.next1D();
+      return ray;
+    };
+    auto showProgress = [&](double samples) {
+      const double now = elapsed();
+      if (now - lastDraw > 0.1) {
+        lastDraw = now;
+        drawProgress(untilTime ? now / *settings.seconds : samples / target, now);
+      }
+    };
+    if (splatTrace) {
+      // Pass by pass: every pixel's sample s (its own light in `own`, its splats into `splatSums`), then each pixel
+      // adds its own light and the splats it received as one sample. (A stop request is answered between passes:
+      // a pass cut short would leave splats of half a pass in the film.)
+#pragma omp parallel num_threads(threads) reduction(+ : rays, bad)
+      {
+        const std::uint64_t raysBefore = rayCount();
+        Splats splats(camera, *splatSums);
+        for (int i = s0; i < s1; ++i) {
+          const int s = share.index(i);
 #pragma omp for schedule(dynamic, 1)
-      for (std::size_t t = 0; t < tiles.size(); ++t) {
-        // A stop request is answered between tiles: a pass of a large image may take long.
-        if (settings.stop && settings.stop->load(std::memory_order_relaxed))
-          continue;
-        const Tile& tile = tiles[t];
-        // [pixel_loop]
-        for (int y = tile.y0; y < tile.y1; ++y)
-          for (int x = tile.x0; x < tile.x1; ++x) {
-            if (!active[std::size_t(y) * std::size_t(width) + std::size_t(x)])
-              continue; // stopped by adaptive sampling
-            const PixelSequence sequence(settings.seed, x, y);
-            for (int i = s0; i < s1; ++i) {
-              // One pixel sample: its own random numbers, a film position, the chapter's estimate.
-              const int s = share.index(i);
-              Sampler sampler(settings.seed, x, y, std::uint64_t(s));
-              const Vec2 offset = pixelOffset(settings.pixelSampling, s, strata, sampler, sequence);
-              // (Cook's distributed ray tracing, chapter 11: a point on the lens and a time in the shutter
-              // interval, drawn only where the camera and the scene have them, so a still pinhole render keeps
-              // every random number where it was.)
-              const Vec2 film = Vec2(Real(x), Real(y)) + offset;
-              Ray ray = settings.lens ? camera.ray(film, sampler.next2D()) : camera.ray(film);
-              if (settings.motion)
-                ray.time = sampler.next1D();
-              Color L = trace(scene, ray, sampler, settings.maxDepth);
-              // Guard the film: a NaN, infinite, negative or huge sample is counted and replaced by black.
+          for (std::size_t t = 0; t < tiles.size(); ++t) {
+            const Tile& tile = tiles[t];
+            for (int y = tile.y0; y < tile.y1; ++y)
+              for (int x = tile.x0; x < tile.x1; ++x) {
+                const PixelSequence sequence(settings.seed, x, y);
+                Sampler sampler(settings.seed, x, y, std::uint64_t(s));
+                const Ray ray = primaryRay(x, y, s, sampler, sequence);
+                own[std::size_t(y) * std::size_t(width) + std::size_t(x)] =
+                    (*splatTrace)(scene, ray, sampler, settings.maxDepth, splats);
+              }
+          }
+          // (The implicit barrier: every splat of the pass has landed.)
+#pragma omp for schedule(static)
+          for (int y = 0; y < height; ++y)
+            for (int x = 0; x < width; ++x) {
+              const std::size_t p = std::size_t(y) * std::size_t(width) + std::size_t(x);
+              Color L = own[p];
+              if (!Film::holds(L)) {
+                ++bad;
+                L = Color(0);
+              }
+              L += splatSums->take(p);
               if (!Film::holds(L)) {
                 ++bad;
                 L = Color(0);
               }
               result.film.add(x, y, L);
             }
-            pixelSamples += std::uint64_t(s1 - s0);
-          }
-        // [pixel_loop]
-        const int tilesFinished = ++tilesDone;
-        if (settings.progress && omp_get_thread_num() == 0) {
-          const double now = elapsed();
-          if (now - lastDraw > 0.1) {
-            lastDraw = now;
-            const double samples = s0 + double(batch) * tilesFinished / double(tiles.size());
-            drawProgress(untilTime ? now / *settings.seconds : samples / target, now);
-          }
+          if (settings.progress && omp_get_thread_num() == 0)
+            showProgress(double(i + 1));
         }
+        rays += rayCount() - raysBefore;
       }
-      rays += rayCount() - raysBefore;
+      bad += splatSums->takeBad();
+      pixelSamples += std::uint64_t(s1 - s0) * std::uint64_t(width) * std::uint64_t(height);
+      tilesDone = int(tiles.size());
+    } else {
+#pragma omp parallel num_threads(threads) reduction(+ : rays, bad, pixelSamples)
+      {
+        const std::uint64_t raysBefore = rayCount();
+#pragma omp for schedule(dynamic, 1)
+        for (std::size_t t = 0; t < tiles.size(); ++t) {
+          // A stop request is answered between tiles: a pass of a large image may take long.
+          if (settings.stop && settings.stop->load(std::memory_order_relaxed))
+            continue;
+          const Tile& tile = tiles[t];
+          // [pixel_loop]
+          for (int y = tile.y0; y < tile.y1; ++y)
+            for (int x = tile.x0; x < tile.x1; ++x) {
+              if (!active[std::size_t(y) * std::size_t(width) + std::size_t(x)])
+                continue; // stopped by adaptive sampling
+              const PixelSequence sequence(settings.seed, x, y);
+              for (int i = s0; i < s1; ++i) {
+                // One pixel sample: its own random numbers, a film position, the chapter's estimate.
+                const int s = share.index(i);
+                Sampler sampler(settings.seed, x, y, std::uint64_t(s));
+                const Ray ray = primaryRay(x, y, s, sampler, sequence);
+                Color L = (*trace)(scene, ray, sampler, settings.maxDepth);
+                // Guard the film: a NaN, infinite, negative or huge sample is counted and replaced by black.
+                if (!Film::holds(L)) {
+                  ++bad;
+                  L = Color(0);
+                }
+                result.film.add(x, y, L);
+              }
+              pixelSamples += std::uint64_t(s1 - s0);
+            }
+          // [pixel_loop]
+          const int tilesFinished = ++tilesDone;
+          if (settings.progress && omp_get_thread_num() == 0)
+            showProgress(s0 + double(batch) * tilesFinished / double(tiles.size()));
+        }
+        rays += rayCount() - raysBefore;
+      }
     }
     result.rays += rays;
     result.badSamples += bad;
@@ -256,6 +354,20 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
     std::fprintf(stderr, "\n");
   }
   return result;
+}
+
+} // namespace
+
+RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                    const TraceFunction& trace)
+{
+  return renderLoop(scene, camera, settings, &trace, nullptr);
+}
+
+RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                    const SplatTraceFunction& trace)
+{
+  return renderLoop(scene, camera, settings, nullptr, &trace);
 }
 
 } // namespace raylife

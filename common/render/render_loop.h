@@ -23,6 +23,57 @@ using TraceFunction = std::function<Color(const Scene& scene, const Ray& ray, Sa
 /// The same for chapters that neither recurse nor bound their depth.
 using SimpleTraceFunction = Color (*)(const Scene& scene, const Ray& ray, Sampler& sampler);
 
+/// The light that the samples of one pass (one sample index of every pixel) add to pixels other than their own:
+/// bidirectional path tracing's light tracing (chapter 13), whose light paths land wherever they reach the camera.
+/// Per pixel and channel a 128-bit fixed-point sum (F = kFilmSumFractionBits, as the film's) held in two 64-bit
+/// atomic words, the low word's carry added to the high one: threads add in any order and the sums are the same
+/// bits. The render loop adds each pixel's sum to that pixel's sample of the same index and clears it.
+class SplatSums {
+public:
+  /// Sums for width × height pixels (each ≥ 1), all zero.
+  SplatSums(int width, int height);
+  /// Adds `L` to pixel `pixel` (row-major from the top row). Thread-safe. A splat that Film::holds refuses is
+  /// dropped and counted as bad.
+  void add(std::size_t pixel, const Color& L);
+  /// The sum of pixel `pixel`, rounded once, and resets it to zero. Not to be called while another thread adds.
+  Color take(std::size_t pixel);
+  /// Splats dropped because Film::holds refused them (NaN, infinite, negative or too large), and resets the count.
+  std::uint64_t takeBad() { return bad_.exchange(0); }
+
+private:
+  std::vector<std::atomic<std::uint64_t>> words_; // per pixel and channel: low word, high word
+  std::atomic<std::uint64_t> bad_{0};
+};
+
+/// What an estimator that splats may do besides returning its own pixel's radiance: add light to any pixel of the
+/// image, for the pass it belongs to. Handed by the render loop to a SplatTraceFunction, one per pixel sample.
+class Splats {
+public:
+  /// Splats into `sums` for an image seen through `camera` (of the sums' size). Both outlive this.
+  Splats(const Camera& camera, SplatSums& sums) : camera_(camera), sums_(sums) {}
+  /// The render's camera: where a point projects (Camera::project), how large a pixel is.
+  const Camera& camera() const { return camera_; }
+  /// Adds radiance `L` (per channel ≥ 0) to the pixel that holds image position `film` (pixels, as Camera::ray and
+  /// Camera::project use them). L is a contribution to that pixel's estimate as it stands, already divided by the
+  /// number of samples that could make it (one per pixel in a pass): the render loop adds it as it is.
+  void add(Vec2 film, const Color& L)
+  {
+    const int x = int(film.x), y = int(film.y);
+    if (x < 0 || y < 0 || x >= camera_.width() || y >= camera_.height())
+      return;
+    sums_.add(std::size_t(y) * std::size_t(camera_.width()) + std::size_t(x), L);
+  }
+
+private:
+  const Camera& camera_;
+  SplatSums& sums_;
+};
+
+/// An estimator that splats (chapter 13): as TraceFunction, and `splats` takes the light this sample adds to other
+/// pixels. Must be thread-safe and keep no state between calls.
+using SplatTraceFunction =
+    std::function<Color(const Scene& scene, const Ray& ray, Sampler& sampler, int maxDepth, Splats& splats)>;
+
 /// Where inside a pixel the samples fall.
 enum class PixelSampling {
   Centre,    ///< Every sample through the pixel's centre (x + ½, y + ½): no anti-aliasing.
@@ -141,5 +192,15 @@ inline constexpr double kAdaptiveMeanFloor = 1.0 / 256.0;
 /// a share, or a range outside [0, spp).
 RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
                     const TraceFunction& trace);
+
+/// Renders with an estimator that splats (chapter 13), as render() with a TraceFunction, but pass by pass: for each
+/// sample index s, every pixel takes its sample s (its radiance C, and splats into any pixel), then every pixel adds
+/// C + (the splats it received in that pass) to the film as one sample. Passes are independent and identically
+/// distributed, so the film's mean, variance of the mean and sample counts keep their meaning, a share of the
+/// sample indices (--samples, MPI ranks) holds all the splats of its passes, and the splats' sums are exact
+/// (SplatSums): the image is bit-identical for any thread count and any partition. A splat that is not finite,
+/// negative or too large counts as a bad sample. No adaptive sampling (@throws std::invalid_argument).
+RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                    const SplatTraceFunction& trace);
 
 } // namespace raylife

@@ -223,14 +223,11 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
   return runChapter(argc, argv, chapter, TraceFactory([&trace](const Scene&) { return trace; }));
 }
 
-int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
-{
-  return runChapter(argc, argv, chapter, OptionsTraceFactory([&makeTrace](const Scene& scene, const ChapterOptions&) {
-                      return makeTrace(scene);
-                    }));
-}
+namespace {
 
-int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace)
+// runChapter and runSplattingChapter: one of the two factories is set.
+int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory* makeTrace,
+                  const SplatTraceFactory* makeSplatTrace)
 {
   const std::string name = chapter.binary;
   // One process, or the ranks of an MPI job: every rank goes through the same steps, only rank 0 speaks and writes.
@@ -333,8 +330,9 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
     // Render, with Ctrl-C and SIGTERM turned into "stop at the next tile" (until the images are written).
     const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
-    const TraceFunction trace = makeTrace(scene, options.chapter);
-    RenderResult result = ranks.render(scene, camera, settings, trace);
+    RenderResult result = makeSplatTrace
+                              ? ranks.render(scene, camera, settings, (*makeSplatTrace)(scene, options.chapter))
+                              : ranks.render(scene, camera, settings, (*makeTrace)(scene, options.chapter));
     std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
     if (chapter.besideTrace) {
       RenderSettings same = settings;
@@ -455,6 +453,26 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
     std::cerr << name << ": internal error: " << e.what() << "; nothing was written (please report this)\n";
   }
   return ranks.finish(1);
+}
+
+} // namespace
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace)
+{
+  const OptionsTraceFactory withOptions = [&makeTrace](const Scene& scene, const ChapterOptions&) {
+    return makeTrace(scene);
+  };
+  return runAnyChapter(argc, argv, chapter, &withOptions, nullptr);
+}
+
+int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace)
+{
+  return runAnyChapter(argc, argv, chapter, &makeTrace, nullptr);
+}
+
+int runSplattingChapter(int argc, char** argv, const ChapterInfo& chapter, const SplatTraceFactory& makeTrace)
+{
+  return runAnyChapter(argc, argv, chapter, nullptr, &makeTrace);
 }
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace)

@@ -80,5 +80,11 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFun
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFactory& makeTrace);
 /// The same, for a chapter whose trace function depends on its own options' values (see OptionsTraceFactory).
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory& makeTrace);
+/// Makes a chapter's estimator that splats (SplatTraceFunction) for a loaded scene and its own options' values, as
+/// OptionsTraceFactory.
+using SplatTraceFactory = std::function<SplatTraceFunction(const Scene& scene, const ChapterOptions& options)>;
+/// The same, for a chapter whose estimator splats (chapter 13), made per scene by `makeTrace`: rendered pass by
+/// pass (render_loop.h). Not with ChapterInfo::besideTrace or ChapterInfo::adaptiveSampling.
+int runSplattingChapter(int argc, char** argv, const ChapterInfo& chapter, const SplatTraceFactory& makeTrace);
 
 } // namespace raylife

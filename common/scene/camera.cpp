@@ -71,5 +71,18 @@ Ray Camera::ray(Vec2 film, Vec2 lens) const
   return Ray{origin, glm::normalize(inFocus - origin), 0, kInfinity};
 }
 // [thin_lens]
+std::optional<Vec2> Camera::project(const Vec3& point) const
+{
+  // The point in the camera frame; the image plane is at z = 1 in front of the eye.
+  const Vec3 d = point - eye_;
+  const Real z = -glm::dot(d, basis_.w);
+  if (!(z > 0))
+    return std::nullopt;
+  const Real x = glm::dot(d, basis_.u) / z, y = glm::dot(d, basis_.v) / z;
+  const Vec2 film((x / halfWidth_ + 1) / 2 * Real(width_), (1 - y / halfHeight_) / 2 * Real(height_));
+  if (!(film.x >= 0 && film.x < Real(width_) && film.y >= 0 && film.y < Real(height_)))
+    return std::nullopt;
+  return film;
+}
 
 } // namespace raylife

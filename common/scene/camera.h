@@ -5,6 +5,7 @@
 #include "core/math.h"
 #include "geometry/ray.h"
 
+#include <optional>
 #include <string>
 #include <variant>
 
@@ -56,6 +57,14 @@ public:
   /// concentric disk mapping): from that point on the lens towards where the pinhole ray of `film` meets the plane
   /// of focus. With aperture 0 it is ray(film), bit for bit.
   Ray ray(Vec2 film, Vec2 lens) const;
+  /// The image position (pixels, as ray() takes it) whose ray passes through `point` (world space): the inverse of
+  /// ray(), for light paths that reach the camera (chapter 13). Nothing when the point lies on or behind the plane of
+  /// the eye, or projects outside [0, width) × [0, height).
+  std::optional<Vec2> project(const Vec3& point) const;
+  /// The distance from the eye (scene units, > 0) of the plane parallel to the image on which one pixel has an area of
+  /// exactly 1: height / (2 tan(vfov/2)). A pixel's sample is uniform on its square there, so the density of a
+  /// primary ray of direction d is that distance² / cos³θ per steradian (θ between d and the view direction).
+  Real unitPixelDistance() const { return Real(height_) / (2 * halfHeight_); }
 
   /// The camera frame.
   const CameraBasis& basis() const { return basis_; }

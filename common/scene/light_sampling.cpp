@@ -57,15 +57,72 @@ Real LightSampler::probability(int primitive) const
   return it != emitters_.end() && it->first == primitive ? it->second : 0;
 }
 
+std::pair<std::size_t, Real> LightSampler::choose(Real uLight) const
+{
+  // Choose a light by inverting the cumulative distribution of power.
+  const std::size_t k = std::size_t(std::upper_bound(cdf_.begin(), cdf_.end(), uLight) - cdf_.begin());
+  const std::size_t chosen = std::min(k, cdf_.size() - 1);
+  return {chosen, cdf_[chosen] - (chosen > 0 ? cdf_[chosen - 1] : 0)};
+}
+
+Real LightSampler::area(int primitive) const
+{
+  if (std::size_t(primitive) < scene_.spheres.size()) {
+    const Real r = scene_.spheres[std::size_t(primitive)].radius;
+    return 4 * kPi * r * r;
+  }
+  const auto [p0, p1, p2] = scene_.triangleVertices(std::size_t(primitive) - scene_.spheres.size());
+  return triangleDoubleArea(p0, p1, p2) / 2;
+}
+
+Vec3 LightSampler::normalAt(int primitive, const Vec3& point) const
+{
+  if (std::size_t(primitive) < scene_.spheres.size()) {
+    const Sphere& s = scene_.spheres[std::size_t(primitive)];
+    return safeNormalize(point - s.center, Vec3(0, 0, 1));
+  }
+  const auto [p0, p1, p2] = scene_.triangleVertices(std::size_t(primitive) - scene_.spheres.size());
+  return triangleNormal(p0, p1, p2);
+}
+
+std::optional<EmitterPoint> LightSampler::sampleEmitterPoint(Real uLight, Vec2 u) const
+{
+  if (cdf_.empty())
+    return std::nullopt;
+  const auto [chosen, choice] = choose(uLight);
+  const int light = lights_[chosen];
+  if (light < 0)
+    return std::nullopt; // a point light: no surface to start from
+  EmitterPoint e;
+  e.hit.primitive = light;
+  e.hit.material = scene_.materialOf(light);
+  e.Le = scene_.materials[std::size_t(e.hit.material)].emission;
+  e.pdfArea = choice / area(light);
+  if (std::size_t(light) < scene_.spheres.size()) {
+    // Uniform on the sphere: a uniform direction from the centre, re-projected with its error bound.
+    const Sphere& s = scene_.spheres[std::size_t(light)];
+    const SurfacePoint<Real> sp = sphereSurfacePoint(s.center, sampleUniformSphere(u), s.radius, s.center, s.radius);
+    e.hit.point = sp.point;
+    e.hit.pointError = sp.error;
+    e.hit.normal = e.hit.geometricNormal = sp.normal;
+  } else {
+    // Uniform on the triangle: b0 = 1 − √u₀, b1 = √u₀·(1 − u₁), b2 = √u₀·u₁.
+    const auto [p0, p1, p2] = scene_.triangleVertices(std::size_t(light) - scene_.spheres.size());
+    const Real su = std::sqrt(u.x);
+    const TrianglePoint<Real> tp = trianglePoint(p0, p1, p2, 1 - su, su * (1 - u.y), su * u.y);
+    e.hit.point = tp.point;
+    e.hit.pointError = tp.error;
+    e.hit.normal = e.hit.geometricNormal = triangleNormal(p0, p1, p2);
+  }
+  return e;
+}
+
 // [sample]
 std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Vec2 u, Real time) const
 {
   if (cdf_.empty())
     return std::nullopt;
-  // Choose a light by inverting the cumulative distribution of power.
-  const std::size_t k = std::size_t(std::upper_bound(cdf_.begin(), cdf_.end(), uLight) - cdf_.begin());
-  const std::size_t chosen = std::min(k, cdf_.size() - 1);
-  const Real choice = cdf_[chosen] - (chosen > 0 ? cdf_[chosen - 1] : 0);
+  const auto [chosen, choice] = choose(uLight);
   const int light = lights_[chosen];
 
   // A point light: the one direction towards it, with the inverse-square law; a delta light has no density.

@@ -263,6 +263,13 @@ struct LightSample {
   bool delta = false; ///< True for a point light, which no BSDF-sampled ray can hit (its MIS weight is 1).
 };
 
+/// A point on an emitter, where a path that starts at the light begins (bidirectional path tracing, chapter 13).
+struct EmitterPoint {
+  Hit hit;         ///< The point as a hit record: point and its error bound, normals, primitive, material.
+  Color Le{0};     ///< The emitter's radiance (it emits from both sides of its surface).
+  Real pdfArea = 0; ///< The probability of choosing this emitter times 1/area: the density of the point, per unit area.
+};
+
 /// Chooses one of a scene's lights (its emissive spheres and triangles, and its point lights) in proportion to an
 /// estimate of its power, and a direction towards it.
 ///
@@ -299,7 +306,18 @@ public:
   /// The probability of choosing emitter `primitive` (0 for a primitive that does not emit), in [0, 1].
   Real probability(int primitive) const;
 
+  /// A light chosen with probability ∝ power by `uLight` (as sample() chooses) and a point on it uniform on its area
+  /// (`u` uniform in [0, 1)²). Nothing when there is no light or the choice is a point light.
+  std::optional<EmitterPoint> sampleEmitterPoint(Real uLight, Vec2 u) const;
+  /// The area of emitter `primitive` (a sphere or a triangle), scene units², > 0.
+  Real area(int primitive) const;
+  /// The unit outward (sphere) or front (triangle) normal of primitive `primitive` at `point` on its surface.
+  Vec3 normalAt(int primitive, const Vec3& point) const;
+
 private:
+  // The index into lights_ that `uLight` chooses (cdf_ not empty), and the probability of that choice.
+  std::pair<std::size_t, Real> choose(Real uLight) const;
+
   const Scene& scene_;
   std::vector<int> lights_;   // ≥ 0: an emitter's primitive number; < 0: point light −(index + 1)
   std::vector<Real> cdf_;     // cumulative probability of lights_[0..i], the last exactly 1

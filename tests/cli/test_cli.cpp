@@ -443,11 +443,12 @@ TEST_CASE("an output in a read-only folder is refused before rendering")
 
 namespace {
 
-// Starts step04 with `args` in `dir` and waits until it has installed its SIGINT and SIGTERM handlers (it does
-// so just before it renders), so a signal sent now reaches the renderer, not the default action.
-Child startRender(const std::vector<std::string>& args, const fs::path& dir, const fs::path& capture)
+// Starts `binary` (step04 by default) with `args` in `dir` and waits until it has installed its SIGINT and SIGTERM
+// handlers (it does so just before it renders), so a signal sent now reaches the renderer, not the default action.
+Child startRender(const std::vector<std::string>& args, const fs::path& dir, const fs::path& capture,
+                  const std::string& binary = kStep04)
 {
-  const Child child = start(kStep04, args, dir, capture);
+  const Child child = start(binary, args, dir, capture);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   while (!(catchesSignal(child.pid, SIGINT) && catchesSignal(child.pid, SIGTERM))) {
     if (std::chrono::steady_clock::now() > deadline) {
@@ -462,12 +463,14 @@ Child startRender(const std::vector<std::string>& args, const fs::path& dir, con
 
 // Checks that a signal (SIGINT or SIGTERM) during a --time render stops it at the next tile, writes
 // the image it has, reports its samples per pixel and exits with 130.
-void checkInterruptedRender(int sig)
+// (Chapter 13, whose samples splat into other pixels, on its own caustic scene with `scene` empty.)
+void checkInterruptedRender(int sig, const std::string& binary = kStep04, const std::string& scene = RAYLIFE_TEST_SCENE)
 {
   const TempDir dir, capture;
-  const Child child = startRender({RAYLIFE_TEST_SCENE, "--time", "60", "--width", "64", "--height", "48", "-o",
-                                   "out.png", "-o", "out.pfm"},
-                                  dir.path(), capture.path());
+  std::vector<std::string> args = {"--time", "60", "--width", "64", "--height", "48", "-o", "out.png", "-o", "out.pfm"};
+  if (!scene.empty())
+    args.insert(args.begin(), scene);
+  const Child child = startRender(args, dir.path(), capture.path(), binary);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   REQUIRE(::kill(child.pid, sig) == 0);
   const Outcome o = wait(child);
@@ -476,7 +479,8 @@ void checkInterruptedRender(int sig)
   INFO(o.err);
   std::smatch m;
   REQUIRE(std::regex_search(o.err, m,
-                            std::regex(R"(step04_shadows: 64x48, (\d+) spp, [0-9.]+ s, .* rays, .* \(interrupted after )"
+                            std::regex(fs::path(binary).filename().string() +
+                                       R"(: 64x48, (\d+) spp, [0-9.]+ s, .* rays, .* \(interrupted after )"
                                        R"((\d+) spp(?: and \d+% of the next pass)?\) -> out\.png, out\.pfm\n$)")));
   CHECK(m[1] == m[2]);
   CHECK(std::stoi(m[1]) >= 1);
@@ -543,6 +547,11 @@ TEST_CASE("a .film of an interrupted pass is refused: a partial film holds whole
   CHECK(o.err == "step04_shadows: interrupted in the middle of a pass: a .film holds whole passes only; nothing was "
                  "written\n");
   CHECK(entries(dir.path()).empty());
+}
+
+TEST_CASE("Ctrl-C during chapter 13's render (splats) writes the image of its whole passes and exits with 130")
+{
+  checkInterruptedRender(SIGINT, STEP13, "");
 }
 
 TEST_CASE("a second Ctrl-C stops at once and writes nothing")

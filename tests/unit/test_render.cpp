@@ -130,3 +130,53 @@ TEST_CASE("the per-sample random numbers depend on seed - pixel and sample index
   }
   CHECK(std::abs(sum / n - 0.5) < 4 * std::sqrt(1.0 / 12 / n));
 }
+
+TEST_CASE("splats: each lands once in its pixel across tile borders - exact on 1 - 2 and 3 threads - bad ones counted")
+{
+  // Every pixel sample splats a known amount into the pixel 17 columns right and 11 rows down (wrapping around), so
+  // splats cross every tile border (16 × 16 tiles of a 37 × 23 image); each pixel receives exactly one splat a pass.
+  const Scene scene = smallScene();
+  const Camera camera = scene.makeCamera();
+  const int W = camera.width(), H = camera.height();
+  auto splatTrace = [&](const Scene&, const Ray& ray, Sampler& sampler, int, Splats& splats) {
+    const std::optional<Vec2> film = splats.camera().project(ray.origin + ray.direction);
+    if (!film)
+      return Color(-1); // (never: a bad sample would show in the count below)
+    const int x = int(film->x), y = int(film->y);
+    const Vec2 target(Real((x + 17) % W) + Real(0.5), Real((y + 11) % H) + Real(0.5));
+    splats.add(target, Color(1, Real(0.5), Real(0.25)) * Real(x + 1)); // (the source's column, for the check)
+    if (x == 3 && y == 4)
+      splats.add(target, Color(std::numeric_limits<Real>::quiet_NaN())); // dropped and counted
+    splats.add(Vec2(Real(-1), Real(2)), Color(1)); // outside the image: ignored
+    return Color(sampler.next1D() * 0); // no light of its own
+  };
+  RenderSettings settings;
+  settings.spp = 5;
+  settings.pixelSampling = PixelSampling::Jittered;
+  std::vector<Image> images;
+  for (int threads : {1, 2, 3}) {
+    settings.threads = threads;
+    const RenderResult r = render(scene, camera, settings, SplatTraceFunction(splatTrace));
+    CHECK(r.spp == 5);
+    CHECK(r.badSamples == 5); // the NaN splat, once a pass
+    images.push_back(r.film.mean());
+  }
+  CHECK(images[0].pixels == images[1].pixels);
+  CHECK(images[0].pixels == images[2].pixels);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int source = (x - 17 + W) % W; // the column whose samples splat here
+      CHECK(images[0].at(x, y, 0) == float(source + 1));
+      CHECK(images[0].at(x, y, 2) == float(Real(0.25) * Real(source + 1)));
+    }
+}
+
+TEST_CASE("splats: adaptive sampling is refused")
+{
+  const Scene scene = smallScene();
+  RenderSettings settings;
+  settings.spp = 4;
+  settings.adaptive = 0.1;
+  const SplatTraceFunction trace = [](const Scene&, const Ray&, Sampler&, int, Splats&) { return Color(0); };
+  CHECK_THROWS_AS(render(scene, scene.makeCamera(), settings, trace), std::invalid_argument);
+}

@@ -1,0 +1,136 @@
+// Chapter 13's MIS weights on single paths: for random paths of 3 edges in a closed diffuse room (eye -> z1 -> z2 ->
+// a point y0 on a lamp), the weights the chapter's own functions give the four strategies that make such a path,
+// (0,4), (1,3), (2,2) and (3,1), must sum to one. The chapter's main.cpp is compiled here (its main renamed), and each
+// weight is read back from the contribution its function returns, divided by what the weight multiplies.
+#define main step13Main
+#include "../../steps/13_bdpt/main.cpp"
+#undef main
+
+#include <catch2/catch.hpp>
+
+namespace {
+
+// The room: the inside of a diffuse sphere of radius 10, a small lamp, the eye at the centre.
+Scene room()
+{
+  return parseScene(R"({ "camera": { "eye": [0, 0, 0], "focal": [0, 0, -1], "vfov": 60, "width": 64, "height": 48 },
+                         "materials": { "wall": { "type": "diffuse", "color": [0.7, 0.7, 0.7] },
+                                        "lamp": { "type": "diffuse", "color": [0, 0, 0], "emission": [5, 5, 5] } },
+                         "spheres": [ { "center": [0, 0, 0], "radius": 10, "material": "wall" },
+                                      { "center": [3, 5, -4], "radius": 1, "material": "lamp" } ] })",
+                    "room.json");
+}
+
+// A BSDF sample record for the diffuse direction wi (local) from wo, as bsdfSample would have made it.
+BsdfSample diffuseSample(const Material& m, const Vec3& wo, const Vec3& wi)
+{
+  return BsdfSample{wi, bsdfEval(m, wo, wi), bsdfPdf(m, wo, wi), false};
+}
+
+Vec3 unit(const Vec3& v) { return v / glm::length(v); }
+
+} // namespace
+
+TEST_CASE("the MIS weights of the strategies that make a path sum to one (random paths of 3 edges)")
+{
+  const Scene scene = room();
+  const Camera camera = scene.makeCamera();
+  const LightSampler lights(scene);
+  const Strategies strategies;
+  SplatSums sums(camera.width(), camera.height());
+  Splats splats(camera, sums);
+  const Material& wall = scene.materials[0];
+  int checked = 0;
+  double worst = 0;
+  for (std::uint64_t trial = 0; trial < 400; ++trial) {
+    Sampler sampler(7, 1, 2, trial);
+    const Context c{scene, lights, strategies, splats, sampler, INT_MAX, Real(camera.width() * camera.height())};
+    // The camera subpath: a primary ray, z1 on the wall, a diffuse bounce to z2 on the wall.
+    const Vec2 film(sampler.next1D() * Real(camera.width()), sampler.next1D() * Real(camera.height()));
+    const Ray primary = camera.ray(film);
+    const std::optional<Hit> z1 = scene.intersect(primary);
+    if (!z1 || z1->primitive != 0)
+      continue;
+    const Frame f1 = Frame::fromNormal(z1->normal);
+    const Vec3 wo1 = f1.toLocal(-primary.direction);
+    const Vec3 wi1 = sampleCosineHemisphere(sampler.next2D()) * (wo1.z < 0 ? Real(-1) : Real(1));
+    const Ray bounce = spawnRay(*z1, f1.toWorld(wi1));
+    const std::optional<Hit> z2 = scene.intersect(bounce);
+    if (!z2 || z2->primitive != 0)
+      continue;
+    const Frame f2 = Frame::fromNormal(z2->normal);
+    const Vec3 wo2 = f2.toLocal(-bounce.direction);
+
+    SubpathState atZ1;
+    atZ1.dVCM = mis(c.lightPaths / primaryRayPdf(camera, -glm::dot(camera.basis().w, primary.direction)));
+    arrive(atZ1, z1->t, std::abs(glm::dot(z1->normal, primary.direction)));
+    SubpathState atZ2 = atZ1;
+    leave(atZ2, diffuseSample(wall, wo1, wi1), bsdfPdf(wall, wi1, wo1));
+    arrive(atZ2, z2->t, std::abs(glm::dot(z2->normal, bounce.direction)));
+    atZ2.beta = Color(1);
+
+    // (1,3): next-event estimation at z2 picks y0; the same draws give the sample here.
+    Sampler replay = sampler;
+    const Real uLight = replay.next1D();
+    const Vec2 uDirection = replay.next2D();
+    const std::optional<LightSample> ls = lights.sample(z2->point, uLight, uDirection);
+    const Color nee = connectToLight(c, atZ2, *z2, f2, wo2, 3);
+    if (!ls || nee.r <= 0)
+      continue;
+    const Ray toLight = spawnRay(*z2, ls->wi);
+    const std::optional<Hit> y0 = scene.intersect(toLight);
+    REQUIRE(y0);
+    REQUIRE(y0->primitive == 1);
+    const Vec3 wiLight = f2.toLocal(ls->wi);
+    const double w13 = nee.r / (bsdfEval(wall, wo2, wiLight).r * std::abs(wiLight.z) * ls->Li.r / ls->pdf);
+
+    // (0,4): the camera subpath goes on from z2 to y0 and hits the lamp there.
+    const Real cosY0 = std::abs(glm::dot(y0->normal, ls->wi));
+    SubpathState atY0 = atZ2;
+    leave(atY0, diffuseSample(wall, wo2, wiLight), bsdfPdf(wall, wiLight, wo2));
+    arrive(atY0, y0->t, cosY0);
+    const double w04 = weightHitLight(c, atY0, *y0, z2->point, cosY0);
+
+    // (2,2): the light subpath y0 -> y1 = z2, joined to the camera vertex z1. Its start as traceLightSubpath makes it.
+    const Vec3 down = -ls->wi; // from y0 towards z2
+    const Real emission = emissionPdf(c, 1, y0->point, down);
+    const Real cosZ2 = std::abs(glm::dot(z2->normal, down));
+    LightVertex y1{*z2, ls->wi, SubpathState{}, 2};
+    y1.state.dVC = mis(cosY0 / emission) / mis(cosZ2);
+    y1.state.dVCM = mis(lights.pdf(z2->point, 1, y0->point) * cosY0 / (emission * cosZ2));
+    atZ1.beta = Color(1);
+    const Color joined = connectVertices(c, atZ1, *z1, f1, wo1, y1, 2);
+    const Vec3 d12 = z2->point - z1->point;
+    const Real r2 = glm::dot(d12, d12);
+    const Vec3 wiZ1 = f1.toLocal(unit(d12));
+    const Vec3 woZ2 = f2.toLocal(unit(-d12)), wiZ2 = f2.toLocal(ls->wi);
+    const double geometry = std::abs(wiZ1.z) * std::abs(woZ2.z) / r2;
+    const double w22 = joined.r / (bsdfEval(wall, wo1, wiZ1).r * bsdfEval(wall, woZ2, wiZ2).r * geometry);
+
+    // (3,1): the light subpath goes on from z2 to z1, which is joined to the eye (a splat).
+    LightVertex y2{*z1, unit(d12), y1.state, 3};
+    leave(y2.state, diffuseSample(wall, wiZ2, woZ2), bsdfPdf(wall, woZ2, wiZ2));
+    arrive(y2.state, std::sqrt(r2), std::abs(wiZ1.z));
+    y2.state.beta = Color(1);
+    connectToCamera(c, y2);
+    const std::optional<Vec2> pixel = camera.project(z1->point);
+    REQUIRE(pixel);
+    const Color splat =
+        sums.take(std::size_t(int(pixel->y)) * std::size_t(camera.width()) + std::size_t(int(pixel->x)));
+    const Vec3 toEye = unit(camera.eye() - z1->point);
+    const Real eyeCos = std::abs(glm::dot(z1->normal, toEye));
+    const Real cameraPdfA = primaryRayPdf(camera, glm::dot(camera.basis().w, toEye)) * eyeCos /
+                            glm::dot(camera.eye() - z1->point, camera.eye() - z1->point);
+    const double w31 =
+        splat.r / (bsdfEval(wall, f1.toLocal(toEye), f1.toLocal(unit(d12))).r * cameraPdfA / c.lightPaths);
+
+    const double sum = w04 + w13 + w22 + w31;
+    INFO("trial " << trial << ": " << w04 << " + " << w13 << " + " << w22 << " + " << w31);
+    CHECK(sum == Approx(1).epsilon(1e-6));
+    CHECK(std::min({w04, w13, w22, w31}) > 0);
+    worst = std::max(worst, std::abs(sum - 1));
+    ++checked;
+  }
+  std::cout << "MIS weights of " << checked << " paths of 3 edges: largest |sum - 1| = " << worst << "\n";
+  CHECK(checked >= 50);
+}
