@@ -187,7 +187,9 @@ TEST_CASE("every sampled direction towards a triangle light hits it, and its pdf
   }
   INFO(misses << " of " << total << " directions missed (" << bySolidAngle << " triangles by solid angle, " << byArea
               << " by area)");
-  CHECK(misses <= total / 10000); // at the very edges, by rounding
+  // At the very edges, by rounding: a direction is a few ulps from where it was aimed, so in float (ulps of 6e-8)
+  // far more land just outside a small or distant triangle than in double (126 of 150,000 here against none).
+  CHECK(misses <= total / (sizeof(Real) == 4 ? 500 : 10000));
   CHECK(bySolidAngle > 500);
   CHECK(byArea > 500);
 }
