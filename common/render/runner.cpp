@@ -2,6 +2,7 @@
 
 #include "render/film_file.h"
 #include "render/image_io.h"
+#include "render/locate.h"
 #include "render/ranks.h"
 #include "scene/scene_plan.h"
 
@@ -18,10 +19,6 @@
 
 #include <signal.h>
 #include <unistd.h>
-
-#ifndef RAYLIFE_SCENE_DIR
-#error "RAYLIFE_SCENE_DIR must be defined by the build"
-#endif
 
 namespace raylife {
 
@@ -89,7 +86,7 @@ std::optional<double> applyPlanOptions(const std::string& name, const Scene& sce
   return options.adaptive;
 }
 
-std::string sceneDirectory() { return RAYLIFE_SCENE_DIR; }
+std::string sceneDirectory() { return findSceneDirectory().string(); }
 
 namespace {
 
@@ -192,7 +189,8 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
     std::cerr << name << ": " << e.what() << "\n" << "usage: " << name << " [SCENE.json] [options]; see --help\n";
     return ranks.finish(2);
   }
-  const std::string defaultScene = sceneDirectory() + "/" + chapter.defaultScene;
+  const std::string scenes = sceneDirectory();
+  const std::string defaultScene = scenes.empty() ? chapter.defaultScene : scenes + "/" + chapter.defaultScene;
   if (options.help) {
     std::cout << usageText(name, defaultScene);
     return ranks.finish(0);
@@ -200,6 +198,9 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFac
 
   try {
     // Load and check everything before any work: scene, size, outputs.
+    if (options.scenePath.empty() && scenes.empty())
+      throw SceneError("cannot find the scenes folder for the default scene " + chapter.defaultScene +
+                       ": there is no scenes/ above " + programDirectory().string() + "; set RAYLIFE_SCENES");
     const std::string scenePath = options.scenePath.empty() ? defaultScene : options.scenePath;
     const Scene scene = loadScene(scenePath);
     for (const std::string& w : scene.warnings)
