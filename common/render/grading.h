@@ -61,6 +61,7 @@ struct StatisticalSetup {
   int spp = 1;                 ///< Samples per pixel of the image under test, ≥ 1.
   int referenceSpp = 1;        ///< Samples per pixel of the reference, ≥ 1.
   bool fromPng = false;        ///< The image was an 8-bit PNG: account for rounding, treat code 255 as "≥ 1".
+  int cell = 1;                ///< Grade cells of cell×cell reference pixels (≥ 1, dividing its width and height).
   double critical = 3.29;      ///< A channel fails when |z| > critical (two-sided significance 0.001 for 3.29).
   double falseFailure = 1e-4;  ///< Probability with which the share bound fails a correct image (a binomial tail).
   double meanCritical = 4;     ///< The image mean fails, per channel, when its |z| > this.
@@ -68,17 +69,22 @@ struct StatisticalSetup {
 
 /// Grades a Monte Carlo image against a reference with the variance of each of its pixel means.
 ///
-/// The image may be k times the reference's size in each direction (k ≥ 1, an integer): each k×k block is then
-/// averaged, which estimates the reference pixel's value without bias, since both are box-filtered. Per channel,
+/// The image may be k times the reference's size in each direction (k ≥ 1, an integer). It is graded in cells of
+/// setup.cell × setup.cell reference pixels: the image's pixels over a cell are averaged, which estimates the
+/// reference's cell mean without bias, since both are box-filtered (cells larger than a pixel give each one more
+/// samples, so that the paths that rarely find a light, whose few samples make a pixel's mean skewed, do not
+/// make a correct image fail). Per cell and channel,
 ///   z = (a − b) / √(σa² + σb² + q² + floor),
-/// with σb² the reference's variance of its mean, σa² = σb²·referenceSpp/(spp·k²) the variance a correct image
+/// with σb² the variance of the reference's cell mean, σa² = σb²·referenceSpp/(spp·k²) the variance a correct image
 /// with those samples has (not the image's own: a biased estimator often has a heavier tail, which would hide its
 /// bias), q the PNG's rounding (half a code, in linear) and a tiny floor for exactly known pixels. A PNG channel at
-/// code 255 only says "at least 1": it can fail for being too bright, never for being too dark, and is left out of
-/// the image-mean test. A pixel fails when any of its channels has |z| > critical; for a correct image that
+/// code 255 only says "at least 1": it can fail for being too bright, never for being too dark. The image-mean test
+/// of a PNG leaves out the cells whose reference is ≥ 1 and takes the image's other clamped values as 1, a lower
+/// bound: when there are any, the mean can only fail for being too bright. A cell fails when any of its channels has |z| > critical; for a correct image that
 /// happens with probability α = 1 − (1 − α₁)³ (Šidák over the channels, α₁ the two-sided significance of
-/// `critical`). The image passes when the failed pixels are no more than the (1 − falseFailure) quantile of
-/// Binomial(pixels, α), and each channel's image mean is within meanCritical standard errors.
+/// `critical`). The image passes when the failed cells are no more than the (1 − falseFailure) quantile of
+/// Binomial(cells, α), and each channel's image mean is within meanCritical standard errors.
+/// Grade::pixels and Grade::failedPixels then count cells; the difference image has one pixel per cell.
 /// @param image             the image, linear (a PNG decoded by readPng), k times the reference's size.
 /// @param reference         the reference's mean, linear.
 /// @param referenceVariance the variance of each of the reference's pixel means (Film::varianceOfMean).

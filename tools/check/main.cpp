@@ -37,6 +37,7 @@ void usage(std::ostream& out)
 {
   out << "usage: raylife_check CHAPTER [IMAGE] [--spp N] [--diff FILE] [--golden DIR]\n"
          "       raylife_check --reference CHAPTER DIR    (the commands that render the golden into DIR)\n"
+         "       raylife_check --list                     (the chapters it grades)\n"
          "  CHAPTER      its number or program: 4 or step04_shadows\n"
          "  IMAGE        a .png, .pfm or .exr of the chapter's default scene; without it, print the command that\n"
          "               renders the image raylife_check grades\n"
@@ -110,7 +111,8 @@ std::string referenceCommands(const GradedChapter& c, const fs::path& dir)
   if (c.grading == Grading::Exact)
     return bin + size + " --quiet -o " + out + ".pfm'\n" + bin + " --quiet -o " + out + ".png'\n";
   return bin + size + " --spp " + std::to_string(c.referenceSpp) + " --seed " + std::to_string(kReferenceSeed) +
-         " --quiet -o " + out + ".pfm' -o " + out + ".png' --variance " + out + "_variance.pfm'\n";
+         " --quiet -o " + out + ".pfm' -o " + out + ".png' --variance " + out + "_variance.pfm' --stats " + out +
+         ".json'\n";
 }
 
 Image readOrUsage(const fs::path& path)
@@ -185,6 +187,11 @@ int run(int argc, char** argv)
       goldenGiven = value();
     else if (arg == "--reference")
       reference = true;
+    else if (arg == "--list") {
+      for (const GradedChapter& c : kGradedChapters)
+        std::cout << c.binary << "\n";
+      return 0;
+    }
     else if (arg.size() > 1 && arg[0] == '-')
       throw Usage{"unknown option '" + arg + "'"};
     else
@@ -255,6 +262,7 @@ int run(int argc, char** argv)
     setup.spp = studentSpp(c, imagePath, spp, notes);
     setup.referenceSpp = c.referenceSpp;
     setup.fromPng = png;
+    setup.cell = c.cell;
     grade = gradeStatistically(image, golden, readOrUsage(variancePath), setup);
     notes.push_back("reference: " + goldenPath.string() + " and its variance");
   }
