@@ -202,3 +202,31 @@ TEST_CASE("check: without an image it prints the command that renders what it gr
   CHECK(o.out.find("--width 64 --height 48 --spp 64 -o step08_mis.pfm --stats step08_mis.json") != std::string::npos);
   CHECK(o.err.find("then: raylife_check 8 step08_mis.pfm") != std::string::npos);
 }
+
+TEST_CASE("compare: bad arguments are refused before any work, with exit 2")
+{
+  TempDir dir;
+  render(STEP04, {"--width", "40", "--height", "30", "--quiet", "-o", "a.pfm"}, dir.path());
+  render(STEP04, {"--width", "32", "--height", "24", "--quiet", "-o", "b.pfm"}, dir.path());
+  const std::vector<std::vector<std::string>> cases = {
+      {"a.pfm", "missing.pfm"},                        // a missing file
+      {"a.pfm", "a.pfm", "--max-share", "1.5"},        // a share above 1
+      {"a.pfm", "a.pfm", "--max-share", "-0.1"},       // a share below 0
+      {"a.pfm", "a.pfm", "--gain", "0"},               // gain 0
+      {"a.pfm", "a.pfm", "--diff", "nowhere/d.png"},   // a --diff in no folder
+      {"a.pfm", "a.pfm", "--diff", "d.txt"},           // a --diff of no image format
+      {"a.pfm", "a.pfm", "--diff"},                    // a --diff without its file
+      {"a.pfm", "b.pfm"},                              // two sizes
+  };
+  for (const auto& args : cases) {
+    const Outcome o = run(RAYLIFE_COMPARE, args, dir.path());
+    INFO(o.err);
+    CHECK(o.status == 2);
+    CHECK(o.out.empty()); // no figures: nothing was compared
+    CHECK(o.err.find("raylife_compare: ") != std::string::npos);
+  }
+  CHECK(entries(dir.path()) == std::vector<std::string>{"a.pfm", "b.pfm"});
+  const Outcome same = run(RAYLIFE_COMPARE, {"a.pfm", "a.pfm", "--diff", "d.png"}, dir.path());
+  CHECK(same.status == 0);
+  CHECK(fs::exists(dir.path() / "d.png"));
+}
