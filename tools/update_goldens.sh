@@ -4,6 +4,7 @@
 # pixel (.pfm), the variance of each pixel's mean (_variance.pfm) and a .png to look at. What each chapter needs
 # comes from raylife_check (tools/check/chapters.h), so a new chapter needs no change here.
 # Usage: tools/update_goldens.sh [BUILD_DIR] [CHAPTER...]   (default: build, every chapter)
+# RAYLIFE_RANKS=N renders over N MPI ranks (a build of the mpi preset as BUILD_DIR): the same bytes, sooner.
 # It stops at once, touching no golden, when the build fails or BUILD_DIR was configured for another tree.
 # For each golden that changes it prints how and writes a difference image to BUILD_DIR/golden-review/. Look at
 # every one before you commit, and say in the commit why the images changed.
@@ -47,7 +48,7 @@ mkdir -p "$review"
 for chapter in "${binaries[@]}"; do
   echo "$chapter: rendering"
   "$check" --reference "$chapter" "$review" | while IFS= read -r command; do
-    bash -c "$command" || { echo "update_goldens: failed: $command" >&2; exit 1; }
+    bash -c "${RAYLIFE_RANKS:+mpirun -np $RAYLIFE_RANKS} $command" || { echo "update_goldens: failed: $command" >&2; exit 1; }
   done
   for new in "$review/$chapter".pfm "$review/$chapter".png "$review/${chapter}"_variance.pfm; do
     [ -f "$new" ] || continue
