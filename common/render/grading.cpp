@@ -90,7 +90,7 @@ Grade gradePngExactly(const Image& image, const Image& golden, int codes)
     }
   g.pass = g.failedPixels == 0;
   g.verdict = std::string(g.pass ? "PASS" : "FAIL") +
-              format(": %.0f of %.0f pixels differ from the golden by more than %.0f codes (largest: %.0f codes)",
+              format(": %.0f of %.0f pixels differ from the golden by more than %.0f code(s) (largest: %.0f)",
                      double(g.failedPixels), double(g.pixels), codes, largest);
   g.figures.push_back("compared as PNG codes: the golden clamped, sRGB-encoded and rounded to 8 bits, as the "
                       "chapters write PNGs");
