@@ -53,8 +53,9 @@ function(raylife_make_exercise source output number page)
     if(NOT name)
       message(FATAL_ERROR "${source}: cannot read the name of the function in ${marker}")
     endif()
-    string(CONCAT stub "  // Chapter ${number}'s idea, taken out: write ${name} here (${page} explains it). Grade your\n"
-                       "  // image with build/bin/raylife_check ${number} IMAGE; raylife_check ${number} prints the command.\n")
+    string(CONCAT stub
+           "  // Chapter ${number}'s idea, taken out: write ${name} here (${page} explains it). Grade your\n"
+           "  // image with build/bin/raylife_check ${number} IMAGE; raylife_check ${number} prints the command.\n")
     if(NOT type STREQUAL "void")
       string(APPEND stub "  return {};\n")
     endif()

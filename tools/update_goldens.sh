@@ -48,7 +48,10 @@ mkdir -p "$review"
 for chapter in "${binaries[@]}"; do
   echo "$chapter: rendering"
   "$check" --reference "$chapter" "$review" | while IFS= read -r command; do
-    bash -c "${RAYLIFE_RANKS:+mpirun -np $RAYLIFE_RANKS} $command" || { echo "update_goldens: failed: $command" >&2; exit 1; }
+    bash -c "${RAYLIFE_RANKS:+mpirun -np $RAYLIFE_RANKS} $command" || {
+      echo "update_goldens: failed: $command" >&2
+      exit 1
+    }
   done
   for new in "$review/$chapter".pfm "$review/$chapter".png "$review/${chapter}"_variance.pfm; do
     [ -f "$new" ] || continue

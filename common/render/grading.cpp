@@ -65,30 +65,52 @@ int srgbCode(float linear)
   return int(std::lround((std::isnan(linear) ? 0.0f : linearToSrgb(linear)) * 255.0f));
 }
 
-Grade gradePngExactly(const Image& image, const Image& golden, int codes)
+namespace {
+
+// One channel compared exactly: the two values (in the unit of the comparison), how far out (1: at the allowed
+// limit) and whether it fails.
+struct ChannelVerdict {
+  double value, expected, score;
+  bool failed;
+};
+
+// Compares every channel of `image` with `golden` by `compare` (x, y, c → ChannelVerdict), filling in the failed
+// pixels, the worst channels and the difference image of `g`.
+template <class Compare>
+void compareChannels(Grade& g, const Image& image, Compare compare)
 {
-  Grade g;
   FailureLog log(g);
   g.pixels = std::size_t(image.width) * std::size_t(image.height);
   g.difference = Image(image.width, image.height);
-  int largest = 0;
   for (int y = 0; y < image.height; ++y)
     for (int x = 0; x < image.width; ++x) {
       bool failed = false;
       for (int c = 0; c < 3; ++c) {
-        const int a = srgbCode(image.at(x, y, c)), b = srgbCode(golden.at(x, y, c));
-        const int d = std::abs(a - b);
-        largest = std::max(largest, d);
-        g.difference.at(x, y, c) = float(d) / float(std::max(codes, 1));
-        if (d > codes) {
+        const ChannelVerdict v = compare(x, y, c);
+        g.difference.at(x, y, c) = float(std::min(v.score, 1e6));
+        if (v.failed) {
           failed = true;
-          log.add({x, y, c, double(a), double(b), double(d) / std::max(codes, 1)});
+          log.add({x, y, c, v.value, v.expected, v.score});
         }
       }
       if (failed)
         log.pixelFailed(x, y, x, y);
     }
   g.pass = g.failedPixels == 0;
+}
+
+} // namespace
+
+Grade gradePngExactly(const Image& image, const Image& golden, int codes)
+{
+  Grade g;
+  int largest = 0;
+  compareChannels(g, image, [&](int x, int y, int c) {
+    const int a = srgbCode(image.at(x, y, c)), b = srgbCode(golden.at(x, y, c));
+    const int d = std::abs(a - b);
+    largest = std::max(largest, d);
+    return ChannelVerdict{double(a), double(b), double(d) / std::max(codes, 1), d > codes};
+  });
   g.verdict = std::string(g.pass ? "PASS" : "FAIL") +
               format(": %.0f of %.0f pixels differ from the golden by more than %.0f code(s) (largest: %.0f)",
                      double(g.failedPixels), double(g.pixels), codes, largest);
@@ -101,29 +123,15 @@ Grade gradePngExactly(const Image& image, const Image& golden, int codes)
 Grade gradeLinearExactly(const Image& image, const Image& golden, double relative, double absolute)
 {
   Grade g;
-  FailureLog log(g);
-  g.pixels = std::size_t(image.width) * std::size_t(image.height);
-  g.difference = Image(image.width, image.height);
   double largest = 0;
-  for (int y = 0; y < image.height; ++y)
-    for (int x = 0; x < image.width; ++x) {
-      bool failed = false;
-      for (int c = 0; c < 3; ++c) {
-        const double a = image.at(x, y, c), b = golden.at(x, y, c);
-        const double allowed = relative * std::abs(b) + absolute;
-        // A NaN is never within tolerance.
-        const double score = std::isnan(a) || std::isnan(b) ? INFINITY : std::abs(a - b) / allowed;
-        largest = std::max(largest, std::abs(a - b));
-        g.difference.at(x, y, c) = float(std::min(score, 1e6));
-        if (!(score <= 1)) {
-          failed = true;
-          log.add({x, y, c, a, b, score});
-        }
-      }
-      if (failed)
-        log.pixelFailed(x, y, x, y);
-    }
-  g.pass = g.failedPixels == 0;
+  compareChannels(g, image, [&](int x, int y, int c) {
+    const double a = image.at(x, y, c), b = golden.at(x, y, c);
+    // A NaN is never within tolerance.
+    const double allowed = relative * std::abs(b) + absolute;
+    const double score = std::isnan(a) || std::isnan(b) ? INFINITY : std::abs(a - b) / allowed;
+    largest = std::max(largest, std::abs(a - b));
+    return ChannelVerdict{a, b, score, !(score <= 1)};
+  });
   g.verdict = std::string(g.pass ? "PASS" : "FAIL") +
               format(": %.0f of %.0f pixels differ from the golden by more than %g relative (+ %g)",
                      double(g.failedPixels), double(g.pixels), relative, absolute);

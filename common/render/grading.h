@@ -80,8 +80,8 @@ struct StatisticalSetup {
 /// bias), q the PNG's rounding (half a code, in linear) and a tiny floor for exactly known pixels. A PNG channel at
 /// code 255 only says "at least 1": it can fail for being too bright, never for being too dark. The image-mean test
 /// of a PNG leaves out the cells whose reference is ≥ 1 and takes the image's other clamped values as 1, a lower
-/// bound: when there are any, the mean can only fail for being too bright. A cell fails when any of its channels has |z| > critical; for a correct image that
-/// happens with probability α = 1 − (1 − α₁)³ (Šidák over the channels, α₁ the two-sided significance of
+/// bound: when there are any, the mean can only fail for being too bright. A cell fails when any of its channels
+/// has |z| > critical; for a correct image that happens with probability α = 1 − (1 − α₁)³ (Šidák over the channels, α₁ the two-sided significance of
 /// `critical`). The image passes when the failed cells are no more than the (1 − falseFailure) quantile of
 /// Binomial(cells, α), and each channel's image mean is within meanCritical standard errors.
 /// Grade::pixels and Grade::failedPixels then count cells; the difference image has one pixel per cell.
