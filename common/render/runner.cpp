@@ -2,6 +2,7 @@
 
 #include "render/film_file.h"
 #include "render/image_io.h"
+#include "render/locate.h"
 #include "render/ranks.h"
 #include "scene/scene_plan.h"
 
@@ -18,10 +19,6 @@
 
 #include <signal.h>
 #include <unistd.h>
-
-#ifndef RAYLIFE_SCENE_DIR
-#error "RAYLIFE_SCENE_DIR must be defined by the build"
-#endif
 
 namespace raylife {
 
@@ -117,7 +114,7 @@ std::optional<double> applyPlanOptions(const std::string& name, const Scene& sce
   return options.adaptive;
 }
 
-std::string sceneDirectory() { return RAYLIFE_SCENE_DIR; }
+std::string sceneDirectory() { return findSceneDirectory().string(); }
 
 std::pair<std::int64_t, std::int64_t> imageSize(int sceneWidth, int sceneHeight, int width, int height)
 {
@@ -239,7 +236,8 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
     std::cerr << name << ": " << e.what() << "\n" << "usage: " << name << " [SCENE.json] [options]; see --help\n";
     return ranks.finish(2);
   }
-  const std::string defaultScene = sceneDirectory() + "/" + chapter.defaultScene;
+  const std::string scenes = sceneDirectory();
+  const std::string defaultScene = scenes.empty() ? chapter.defaultScene : scenes + "/" + chapter.defaultScene;
   if (options.help) {
     std::cout << usageText({name, defaultScene, chapter.defaultSpp, chapter.adaptiveSampling,
                             describeReads(chapter.uses), chapter.options});
@@ -248,6 +246,9 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
 
   try {
     // Load and check everything before any work: scene, size, outputs.
+    if (options.scenePath.empty() && scenes.empty())
+      throw SceneError("cannot find the scenes folder for the default scene " + chapter.defaultScene +
+                       ": there is no scenes/ above " + programDirectory().string() + "; set RAYLIFE_SCENES");
     const std::string scenePath = options.scenePath.empty() ? defaultScene : options.scenePath;
     // A size on the command line replaces the scene's (even one too large to render).
     const Scene scene = loadScene(scenePath, options.width || options.height);

@@ -46,7 +46,8 @@ std::string describeReads(unsigned uses);
 /// What in `scene` a chapter that reads only `uses` ignores, as one phrase ("2 point lights, ambient"), or "".
 std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven);
 
-/// The scenes/ folder of the source tree (compiled in), where default scenes live.
+/// The scenes folder, where default scenes live: $RAYLIFE_SCENES, else the `scenes/` of the tree the program is
+/// in (render/locate.h); "" when there is none.
 std::string sceneDirectory();
 
 /// The size of the image to render, in pixels: --width and --height where given (0: not given); with only one of

@@ -140,17 +140,6 @@ TEST_CASE("splats keep --time, --variance and --stats: a time budget renders who
     CHECK(variance > 0);
 }
 
-TEST_CASE("golden: chapter 13 on the caustic scene with another seed passes the z-test against its reference")
-{
-  // The reference: tests/lights/make_references.sh (2048 samples per pixel, seed 0).
-  const std::string golden = RAYLIFE_LIGHTS_GOLDEN;
-  const ChapterRender r = run(RAYLIFE_STEP13, kScenes + "/caustics.json", "--width 64 --height 48 --spp 64 --seed 1234",
-                              "golden13");
-  CHECK(compare(r.mean, r.variance, readPfm(golden + "/step13_caustics_64x48.pfm"),
-                readPfm(golden + "/step13_caustics_64x48_variance.pfm"), "golden, chapter 13")
-            .passed());
-}
-
 TEST_CASE("each strategy alone - unweighted - renders the same image of the paths it can make (no delta surfaces)")
 {
   // The check before MIS: in a box of diffuse and glossy surfaces only, every strategy (s, t) of paths of k = 3

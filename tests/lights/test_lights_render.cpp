@@ -1,5 +1,5 @@
 // Chapters 7 and 8 as students run them (their executables, through run_chapter.h): unbiasedness against chapter 6,
-// the analytic scenes, and golden images.
+// the analytic scenes (their golden images are graded by raylife_check: tests/check).
 //
 // The statistical test is the one of tests/analytic and tests/golden: per pixel channel z = (a − b)/√(var_a + var_b),
 // var being the variance of each image's pixel mean from its own samples; a channel fails when |z| > 3.29 (two-sided
@@ -31,7 +31,6 @@ using namespace raylife::test;
 namespace {
 
 const std::string kScenes = RAYLIFE_SCENES;
-const std::string kGolden = RAYLIFE_LIGHTS_GOLDEN;
 
 // The three chapters on one scene, each with its own seed, compared pairwise (per pixel, or per block of pixels).
 void checkSameImage(const std::string& scene, const std::string& size, int spp6, int spp78, const std::string& tag,
@@ -295,22 +294,4 @@ TEST_CASE("analytic: a floor under an emissive quad is ρ Le E/π by Lambert's f
                 "floor under an emissive quad");
 }
 
-// ---- Golden images ----------------------------------------------------------------------------------------------
-
-TEST_CASE("golden: chapter 7 on the Cornell box with another seed passes the z-test against its reference")
-{
-  const ChapterRender r = run(RAYLIFE_STEP07, kScenes + "/cornell.json", "--width 64 --height 48 --spp 256 --seed 1234",
-                              "golden7");
-  CHECK(compare(r.mean, r.variance, readPfm(kGolden + "/step07_cornell_64x48.pfm"),
-                readPfm(kGolden + "/step07_cornell_64x48_variance.pfm"), "golden, chapter 7")
-            .passed());
-}
-
-TEST_CASE("golden: chapter 8 on the MIS scene with another seed passes the z-test against its reference")
-{
-  const ChapterRender r = run(RAYLIFE_STEP08, kScenes + "/mis.json", "--width 64 --height 48 --spp 256 --seed 1234",
-                              "golden8");
-  CHECK(compare(r.mean, r.variance, readPfm(kGolden + "/step08_mis_64x48.pfm"),
-                readPfm(kGolden + "/step08_mis_64x48_variance.pfm"), "golden, chapter 8")
-            .passed());
-}
+// The golden images of chapters 7 and 8: raylife_check grades them (tests/check).

@@ -7,6 +7,7 @@
 #include "bench.h"
 #include "render/image_compare.h"
 #include "render/image_io.h"
+#include "render/locate.h"
 
 #include <nlohmann/json.hpp>
 
@@ -23,9 +24,6 @@
 
 #include <sys/wait.h>
 
-#ifndef RAYLIFE_SOURCE_DIR
-#error "RAYLIFE_SOURCE_DIR must be defined by the build"
-#endif
 
 namespace fs = std::filesystem;
 using namespace raylife;
@@ -595,7 +593,7 @@ int main(int argc, char** argv)
       o.binDir = fs::canonical("/proc/self/exe").parent_path();
     o.binDir = fs::absolute(o.binDir);
     if (!o.floatGiven) {
-      const fs::path f = fs::path(RAYLIFE_SOURCE_DIR) / "build-float" / "bin";
+      const fs::path f = projectRoot() / "build-float" / "bin";
       if (fs::is_directory(f) && fs::absolute(f) != o.binDir)
         o.floatBinDir = f;
     }
@@ -619,7 +617,7 @@ int main(int argc, char** argv)
                                "step08_mis) in " + o.binDir.string() + ": build them first");
 
     std::vector<fs::path> scenes;
-    const fs::path sceneDir = fs::path(RAYLIFE_SOURCE_DIR) / "scenes";
+    const fs::path sceneDir = findSceneDirectory();
     auto resolveScene = [&](const std::string& s) -> fs::path {
       if (fs::exists(s))
         return fs::absolute(s);

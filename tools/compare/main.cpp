@@ -8,8 +8,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <cmath>
+#include <filesystem>
 #include <iostream>
 #include <string>
+
+#include <unistd.h>
 
 using namespace raylife;
 
@@ -23,7 +26,9 @@ void usage()
                "  --max-share S     share of pixels allowed over the tolerance, in [0, 1] (default 0)\n"
                "  --diff FILE       write |IMAGE - REFERENCE| x gain as .png or .pfm\n"
                "  --gain G          scale of the difference image (default 10)\n"
-               "exit status: 0 within tolerance, 1 not, 2 bad usage or unreadable image\n";
+               "exit status: 0 within tolerance, 1 not, 2 bad usage (a missing or unreadable image, images of two\n"
+               "sizes, a share outside [0, 1], gain 0, a --diff that cannot be written)\n"
+               "To grade a chapter's image against its golden, use raylife_check.\n";
 }
 
 bool parseNumber(const char* text, double& out)
@@ -56,8 +61,13 @@ int main(int argc, char** argv)
       number(maxShare);
     else if (arg == "--gain")
       number(gain);
-    else if (arg == "--diff" && i + 1 < argc)
+    else if (arg == "--diff") {
+      if (i + 1 >= argc) {
+        std::cerr << "raylife_compare: --diff expects a file (.png, .pfm or .exr)\n";
+        return 2;
+      }
       diffPath = argv[++i];
+    }
     else if (arg == "--help" || arg == "-h") {
       usage();
       return 0;
@@ -76,13 +86,45 @@ int main(int argc, char** argv)
     usage();
     return 2;
   }
+  // Every argument is checked before any work: a bad one is bad usage (2), never a failed comparison (1).
+  if (maxShare > 1) {
+    std::cerr << "raylife_compare: --max-share " << maxShare << ": a share of the pixels, in [0, 1]\n";
+    return 2;
+  }
+  if (gain <= 0) {
+    std::cerr << "raylife_compare: --gain " << gain << ": the difference image's scale must be > 0\n";
+    return 2;
+  }
+  for (const std::string& f : files) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(f, ec)) {
+      std::cerr << "raylife_compare: " << f << ": no such image file\n";
+      return 2;
+    }
+  }
+  if (!diffPath.empty()) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path folder = fs::path(diffPath).parent_path().empty() ? fs::path(".") : fs::path(diffPath).parent_path();
+    if (!isImagePath(diffPath)) {
+      std::cerr << "raylife_compare: --diff " << diffPath << ": expected a .png, .pfm or .exr file\n";
+      return 2;
+    }
+    if (!fs::is_directory(folder, ec) || ::access(folder.c_str(), W_OK) != 0 || fs::is_directory(diffPath, ec)) {
+      std::cerr << "raylife_compare: --diff " << diffPath << ": cannot be written (is its folder there and "
+                << "writable?)\n";
+      return 2;
+    }
+  }
   try {
     const Image image = readImage(files[0]);
     const Image reference = readImage(files[1]);
     if (image.width != reference.width || image.height != reference.height) {
       std::cerr << "raylife_compare: " << files[0] << " is " << image.width << "x" << image.height << " but "
-                << files[1] << " is " << reference.width << "x" << reference.height << "\n";
-      return 1;
+                << files[1] << " is " << reference.width << "x" << reference.height
+                << ": only images of one size can be compared (to grade a chapter's image at any size it allows: "
+                   "raylife_check)\n";
+      return 2;
     }
     const ImageDifference d = compareImages(image, reference, tolerance);
     std::printf("max difference   %.6g (at pixel %d, %d)\n", d.maxAbs, d.worstX, d.worstY);

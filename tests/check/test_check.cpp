@@ -1,0 +1,232 @@
+// raylife_check as students and teachers run it: wrong images really rendered (a scene changed, or chapter 6's
+// loop with a classic mistake, tests/check/path_mistakes.h) fail with exit 1 and a difference image; correct ones
+// pass; bad usage exits 2. (Every chapter's correct renders at other seeds and thread counts: run_check.cmake.)
+#include "../cli/process.h"
+
+#include <catch2/catch.hpp>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+using namespace raylife::test;
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+const std::string kCheck = RAYLIFE_CHECK;
+const std::string kScenes = RAYLIFE_SOURCE_SCENES;
+
+// Runs `program` with `args` in `dir`; requires it to succeed.
+void render(const std::string& program, const std::vector<std::string>& args, const fs::path& dir)
+{
+  const Outcome o = run(program, args, dir);
+  INFO(o.err);
+  REQUIRE(o.status == 0);
+}
+
+// raylife_check's outcome, printed for the log.
+Outcome check(const std::vector<std::string>& args, const fs::path& dir)
+{
+  const Outcome o = run(kCheck, args, dir);
+  UNSCOPED_INFO("raylife_check: status " << o.status << "\n" << o.out << o.err);
+  return o;
+}
+
+// A copy of scene `name` changed by `edit`, written into `dir`.
+std::string editedScene(const std::string& name, const fs::path& dir, void (*edit)(json&))
+{
+  std::ifstream in(kScenes + "/" + name);
+  json scene = json::parse(in);
+  edit(scene);
+  const fs::path out = dir / ("edited_" + name);
+  std::ofstream(out) << scene.dump(2);
+  return out.string();
+}
+
+// Renders chapter 4 at its golden's size on `scene` and grades its PFM and its PNG: both must fail, with a
+// difference image and the place of the error.
+void requireChapter4Fails(const std::string& scene, const fs::path& dir)
+{
+  render(STEP04, {scene, "--width", "160", "--height", "120", "--quiet", "-o", "wrong.pfm", "-o", "wrong.png"}, dir);
+  for (const char* image : {"wrong.pfm", "wrong.png"}) {
+    const Outcome o = check({"4", image}, dir);
+    CHECK(o.status == 1);
+    CHECK(o.out.find("FAIL") != std::string::npos);
+    CHECK(o.out.find("failed pixels lie in columns") != std::string::npos);
+    CHECK(fs::exists(dir / "wrong-difference.png"));
+    fs::remove(dir / "wrong-difference.png");
+  }
+}
+
+// Renders chapter 6 (or a program like it) at its reference's size, 128 spp, seed 99, and grades the PFM.
+Outcome renderAndCheck6(const std::string& program, const std::vector<std::string>& scene, const fs::path& dir)
+{
+  std::vector<std::string> args = scene;
+  for (const char* a : {"--width", "64", "--height", "48", "--spp", "128", "--seed", "99", "--quiet", "-o",
+                        "image.pfm", "--stats", "image.json"})
+    args.emplace_back(a);
+  render(program, args, dir);
+  return check({"6", "image.pfm"}, dir);
+}
+
+} // namespace
+
+TEST_CASE("check: chapter 4 with a sphere's colour changed fails")
+{
+  TempDir dir;
+  requireChapter4Fails(editedScene("spheres.json", dir.path(),
+                                   [](json& s) { s["materials"]["red"]["color"] = {0.7, 0.3, 0.25}; }),
+                       dir.path());
+}
+
+TEST_CASE("check: chapter 4 with a light moved fails")
+{
+  TempDir dir;
+  requireChapter4Fails(
+      editedScene("spheres.json", dir.path(), [](json& s) { s["lights"][0]["position"] = {-5, 7, 4.5}; }),
+      dir.path());
+}
+
+TEST_CASE("check: chapter 4 with a light 5% too bright fails")
+{
+  TempDir dir;
+  requireChapter4Fails(
+      editedScene("spheres.json", dir.path(), [](json& s) { s["lights"][0]["intensity"] = {73.5, 65.1, 52.5}; }),
+      dir.path());
+}
+
+TEST_CASE("check: chapter 6 with another seed passes, and so does the tests' copy of its loop (the control)")
+{
+  TempDir dir;
+  CHECK(renderAndCheck6(STEP06, {}, dir.path()).status == 0);
+  CHECK(renderAndCheck6(MISTAKE_NONE, {}, dir.path()).status == 0);
+}
+
+TEST_CASE("check: chapter 6 with its lamp 5% too bright fails")
+{
+  TempDir dir;
+  const std::string scene = editedScene("cornell.json", dir.path(), [](json& s) {
+    s["materials"]["lamp"]["emission"] = {12.6, 12.6, 12.6};
+  });
+  const Outcome o = renderAndCheck6(STEP06, {scene}, dir.path());
+  CHECK(o.status == 1);
+  CHECK(o.out.find("a bias") != std::string::npos);
+}
+
+TEST_CASE("check: chapter 6 with its lamp moved fails")
+{
+  TempDir dir;
+  const std::string scene = editedScene("cornell.json", dir.path(), [](json& s) {
+    s["spheres"][8]["center"] = {40, 66, 81.6};
+  });
+  CHECK(renderAndCheck6(STEP06, {scene}, dir.path()).status == 1);
+}
+
+TEST_CASE("check: chapter 6 with a wall's colour changed fails")
+{
+  TempDir dir;
+  const std::string scene = editedScene("cornell.json", dir.path(), [](json& s) {
+    s["materials"]["red"]["color"] = {0.75, 0.3, 0.25};
+  });
+  CHECK(renderAndCheck6(STEP06, {scene}, dir.path()).status == 1);
+}
+
+TEST_CASE("check: chapter 6's loop without the cosine fails")
+{
+  TempDir dir;
+  CHECK(renderAndCheck6(MISTAKE_COSINE, {}, dir.path()).status == 1);
+}
+
+TEST_CASE("check: chapter 6's loop with Russian roulette that does not divide fails")
+{
+  TempDir dir;
+  CHECK(renderAndCheck6(MISTAKE_ROULETTE, {}, dir.path()).status == 1);
+}
+
+TEST_CASE("check: a render with fewer samples than it says fails, and passes when told the truth")
+{
+  TempDir dir;
+  render(STEP06, {"--width", "64", "--height", "48", "--spp", "32", "--seed", "5", "--quiet", "-o", "few.pfm"},
+         dir.path());
+  CHECK(check({"6", "few.pfm"}, dir.path()).status == 1); // graded as the default 128 spp
+  CHECK(check({"6", "few.pfm", "--spp", "32"}, dir.path()).status == 0);
+}
+
+TEST_CASE("check: bad usage and unreadable images exit with 2")
+{
+  TempDir dir;
+  writeFile(dir.path() / "garbage.png", "not a png");
+  writeFile(dir.path() / "notes.txt", "hello");
+  render(STEP04, {"--width", "80", "--height", "60", "--quiet", "-o", "small.pfm"}, dir.path());
+  render(STEP06, {"--width", "64", "--height", "48", "--spp", "4", "--quiet", "-o", "s.pfm", "--stats", "s.json"},
+         dir.path());
+  writeFile(dir.path() / "t.json", "{\"chapter\": \"step07_light_sampling\", \"spp\": 64}");
+  fs::copy_file(dir.path() / "s.pfm", dir.path() / "t.pfm");
+  writeFile(dir.path() / "u.json", "{\"spp\": ");
+  fs::copy_file(dir.path() / "s.pfm", dir.path() / "u.pfm");
+  const std::vector<std::vector<std::string>> cases = {
+      {},                                // no chapter
+      {"42"},                            // no such chapter
+      {"step99_nothing", "small.pfm"},   // no such chapter
+      {"4", "missing.pfm"},              // no such file
+      {"4", "garbage.png"},              // not an image
+      {"4", "notes.txt"},                // not an image format
+      {"4", "small.pfm"},                // the wrong size
+      {"6", "small.pfm"},                // not a multiple of the reference's size
+      {"6", "s.pfm", "--spp", "0"},      // a bad count
+      {"6", "s.pfm", "--spp", "many"},   // a bad count
+      {"6", "s.pfm", "--spp"},           // a missing value
+      {"4", "small.pfm", "small.pfm"},   // two images
+      {"4", "small.pfm", "--colour"},    // an unknown option
+      {"6", "t.pfm"},                    // a --stats file of another chapter
+      {"6", "u.pfm"},                    // a broken --stats file
+      {"4", "small.pfm", "--golden", "nowhere"}, // no golden there
+  };
+  for (const auto& args : cases) {
+    const Outcome o = check(args, dir.path());
+    CHECK(o.status == 2);
+    CHECK(o.err.find("raylife_check: ") != std::string::npos);
+    CHECK(o.out.empty());
+  }
+}
+
+TEST_CASE("check: without an image it prints the command that renders what it grades")
+{
+  TempDir dir;
+  const Outcome o = check({"step08_mis"}, dir.path());
+  REQUIRE(o.status == 0);
+  CHECK(o.out.find("--width 64 --height 48 --spp 64 -o step08_mis.pfm --stats step08_mis.json") != std::string::npos);
+  CHECK(o.err.find("then: raylife_check 8 step08_mis.pfm") != std::string::npos);
+}
+
+TEST_CASE("compare: bad arguments are refused before any work, with exit 2")
+{
+  TempDir dir;
+  render(STEP04, {"--width", "40", "--height", "30", "--quiet", "-o", "a.pfm"}, dir.path());
+  render(STEP04, {"--width", "32", "--height", "24", "--quiet", "-o", "b.pfm"}, dir.path());
+  const std::vector<std::vector<std::string>> cases = {
+      {"a.pfm", "missing.pfm"},                        // a missing file
+      {"a.pfm", "a.pfm", "--max-share", "1.5"},        // a share above 1
+      {"a.pfm", "a.pfm", "--max-share", "-0.1"},       // a share below 0
+      {"a.pfm", "a.pfm", "--gain", "0"},               // gain 0
+      {"a.pfm", "a.pfm", "--diff", "nowhere/d.png"},   // a --diff in no folder
+      {"a.pfm", "a.pfm", "--diff", "d.txt"},           // a --diff of no image format
+      {"a.pfm", "a.pfm", "--diff"},                    // a --diff without its file
+      {"a.pfm", "b.pfm"},                              // two sizes
+  };
+  for (const auto& args : cases) {
+    const Outcome o = run(RAYLIFE_COMPARE, args, dir.path());
+    INFO(o.err);
+    CHECK(o.status == 2);
+    CHECK(o.out.empty()); // no figures: nothing was compared
+    CHECK(o.err.find("raylife_compare: ") != std::string::npos);
+  }
+  CHECK(entries(dir.path()) == std::vector<std::string>{"a.pfm", "b.pfm"});
+  const Outcome same = run(RAYLIFE_COMPARE, {"a.pfm", "a.pfm", "--diff", "d.png"}, dir.path());
+  CHECK(same.status == 0);
+  CHECK(fs::exists(dir.path() / "d.png"));
+}

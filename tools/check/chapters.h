@@ -1,0 +1,66 @@
+// The chapters raylife_check grades, one line each: how, at what size, with how many samples. A new chapter adds
+// its line here and renders its golden with tools/update_goldens.sh BUILD CHAPTER (docs/golden-tests.md).
+#pragma once
+
+#include <string>
+
+namespace raylife::check {
+
+/// How a chapter's image is graded.
+enum class Grading {
+  Exact,       ///< Deterministic chapters: every channel within a tolerance of the golden, in the image's domain.
+  Statistical, ///< Chapters that sample at random: per-pixel z-test and image-mean test against a reference.
+};
+
+/// One chapter's entry.
+struct GradedChapter {
+  int number;          ///< The chapter's number (raylife_check 4 ...).
+  const char* binary;  ///< Its program, and the golden's file name: tests/golden/BINARY.pfm.
+  Grading grading;     ///< Exact or Statistical.
+  int width;           ///< The golden's render size (--width, --height); Statistical: images k times as large
+  int height;          ///< in each direction pass too (the chapter's default size is one of them).
+  int spp;             ///< Statistical: the chapter's default samples per pixel, assumed when nothing says.
+  int referenceSpp;    ///< Statistical: the reference's samples per pixel (0 for Exact).
+  int cell = 1;        ///< Statistical: graded in cells of cell×cell reference pixels (render/grading.h).
+};
+
+/// The seed of the statistical references: not the chapters' default 0, so that a student's default render
+/// shares no samples with its reference.
+inline constexpr int kReferenceSeed = 1;
+
+// Exact goldens are 160x120 (a PFM), plus the PNG of the chapter's default render; statistical references are
+// 64x48 (a quarter of the Cornell box's 256x192 and a fifth of the Whitted scene's 320x240), cheap at many spp.
+// Chapter 5 samples its pixels at random (anti-aliasing), so another seed moves its edges: graded statistically.
+// Cells: at their default spp, chapters 6 and 7 have pixels whose mean is skewed (paths that find the lamp only
+// through the mirror or the glass: rare, bright samples), and one pixel's z is then far from normal: 15 to 25 of
+// 3072 pixels of a correct chapter 6 fail where about 9 should, 80 to 100 of chapter 7. Graded in cells of 2x2
+// (chapter 6) and 4x4 pixels (chapter 7), which pools 512 and 1024 samples, they fail as often as the bound
+// expects (0 to 3 of 768; 0 to 3 of 192, over 8 seeds each), and a 5% brighter, moved or recoloured lamp or wall
+// still fails by far (tests/check/test_check.cpp).
+inline constexpr GradedChapter kGradedChapters[] = {
+    {1, "step01_camera", Grading::Exact, 160, 120, 1, 0},
+    {2, "step02_sphere", Grading::Exact, 160, 120, 1, 0},
+    {3, "step03_lambert", Grading::Exact, 160, 120, 1, 0},
+    {4, "step04_shadows", Grading::Exact, 160, 120, 1, 0},
+    {5, "step05_whitted", Grading::Statistical, 64, 48, 16, 4096},
+    {6, "step06_path_tracer", Grading::Statistical, 64, 48, 128, 16384, 2},
+    {7, "step07_light_sampling", Grading::Statistical, 64, 48, 64, 8192, 4},
+    {8, "step08_mis", Grading::Statistical, 64, 48, 64, 8192},
+    {9, "step09_bvh", Grading::Exact, 160, 120, 1, 0},
+    {10, "step10_meshes", Grading::Exact, 160, 120, 1, 0},
+    {11, "step11_distributed", Grading::Statistical, 64, 48, 64, 4096, 2},
+    {12, "step12_ambient_occlusion", Grading::Statistical, 64, 64, 64, 4096},
+    {13, "step13_bdpt", Grading::Statistical, 64, 48, 16, 2048, 2},
+};
+
+/// The entry of chapter `name` ("4", "04" or "step04_shadows"), or nullptr.
+inline const GradedChapter* findChapter(const std::string& name)
+{
+  for (const GradedChapter& c : kGradedChapters)
+    if (name == c.binary || name == std::to_string(c.number) || (name.size() == 2 && name[0] == '0' &&
+                                                                  name.substr(1) == std::to_string(c.number)))
+      return &c;
+  return nullptr;
+}
+
+} // namespace raylife::check
