@@ -233,6 +233,20 @@ TEST_CASE("the BVH over triangles and spheres finds exactly the brute-force hit 
     s.add(triangleSoup(random, 150, 11));
     checkAgreement(s, 250000, 4, 12);
   }
+  SECTION("a floor quad and walls of huge triangles, kept out of the tree, around a soup and spheres")
+  {
+    Mixed s;
+    s.spheres = uniformScene(random, 20);
+    TestMesh<Real> room;
+    const Real w = 400;
+    room.vertices = {Vec3(-w, -11, -w), Vec3(w, -11, -w), Vec3(w, -11, w), Vec3(-w, -11, w),
+                     Vec3(-w, w, -w), Vec3(w, w, -w)};
+    room.triangles = {{0, 2, 1}, {0, 3, 2}, {0, 3, 2}, {0, 1, 5}, {0, 5, 4}}; // the floor (one twice), a wall
+    s.add(room);
+    s.add(triangleSoup(random, 200, 10));
+    REQUIRE(Bvh(s.spheres, s.vertices, s.triangles).outsidePrimitives() == std::vector<int>{20, 21, 22, 23, 24});
+    checkAgreement(s, 200000, 5, 12);
+  }
   SECTION("tiny scenes")
   {
     for (int n : {1, 2, 3, 5, 9}) {
