@@ -506,14 +506,18 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
     std::vector<Sphere> outsideSpheres;
     for (const int index : outside_)
       if (std::size_t(index) < spheres.size()) {
-        outsideSpheres.push_back(spheres[std::size_t(index)]);
+        const Sphere& sphere = spheres[std::size_t(index)];
+        outsideSpheres.push_back(sphere);
+        outsideSpheres_.push_back(SpherePrimitive{sphere.center, sphere.radius, index, false});
         outsideSphereIndex_.push_back(index);
       } else {
         const Triangle& tri = triangles[std::size_t(index) - spheres.size()];
         outsideTriangles_.push_back(TrianglePrimitive{{tri.v[0], tri.v[1], tri.v[2]}, index, false});
       }
-    if (!outsideSpheres.empty())
-      outsideSpheres_ = SphereLanes(outsideSpheres);
+    if (outsideSpheres.size() >= kOutsideLanesMin && laneTestAvailable(LaneTest::FourAtOnce)) {
+      outsideLanes_ = SphereLanes(outsideSpheres, LaneTest::FourAtOnce);
+      outsideSpheres_.clear();
+    }
     std::erase_if(items, [this](const BuildItem& item) {
       return std::binary_search(outside_.begin(), outside_.end(), item.index);
     });
@@ -786,20 +790,32 @@ RAYLIFE_AVX2 [[gnu::flatten]] Bvh::Traversal Bvh::traverseEight(const Ray& ray, 
 #endif
 
 /// [testOutside]
-// The primitives outside the tree, before it: the spheres four at a time, then the triangles one by one. The
+// The primitives outside the tree, before it: the spheres (four at a time when there are enough), then the
+// triangles one by one. The
 // nearest of them (or any, for a shadow ray) is where the tree's walk starts from: its boxes beyond it are skipped.
 template <bool kAnyHit, bool kCountWork> Bvh::Traversal Bvh::testOutside(const Ray& ray) const
 {
   Traversal found{ray.tmax, -1, BvhWork{}};
-  if (outsideSpheres_.size() > 0) {
+  if (outsideLanes_.size() > 0) {
     if constexpr (kCountWork)
-      found.work.primitivesTested += std::uint32_t(outsideSpheres_.size());
+      found.work.primitivesTested += std::uint32_t(outsideLanes_.size());
     if constexpr (kAnyHit) {
-      if (outsideSpheres_.occluded(ray))
+      if (outsideLanes_.occluded(ray))
         return Traversal{ray.tmax, outsideSphereIndex_[0], found.work}; // some blocker: which one does not matter
-    } else if (const std::optional<SphereHit> h = outsideSpheres_.intersect(ray)) {
+    } else if (const std::optional<SphereHit> h = outsideLanes_.intersect(ray)) {
       found.t = h->t;
       found.primitive = outsideSphereIndex_[std::size_t(h->sphere)];
+    }
+  }
+  for (const SpherePrimitive& p : outsideSpheres_) { // (the brute-force loop's own: nearer ones shrink the interval)
+    if constexpr (kCountWork)
+      found.work.primitivesTested += 1;
+    if (const std::optional<Real> t =
+            intersectSphere(ray.origin, ray.direction, p.center, p.radius, ray.tmin, found.t)) {
+      if constexpr (kAnyHit)
+        return Traversal{*t, p.index, found.work};
+      found.t = *t;
+      found.primitive = p.index;
     }
   }
   for (const TrianglePrimitive& p : outsideTriangles_) {

@@ -198,7 +198,7 @@ public:
   /// tree).
   std::size_t primitiveCount() const
   {
-    return spheres_.size() + triangles_.size() + outsideSpheres_.size() + outsideTriangles_.size();
+    return spheres_.size() + triangles_.size() + outside_.size();
   }
   /// The huge primitives kept out of the tree (BvhBuildOptions::hugeOutside), by number, in increasing order: tested
   /// one after the other by every query, before the tree. They are the largest set of the biggest primitives (by
@@ -270,8 +270,12 @@ private:
   std::vector<TrianglePrimitive> triangles_;
   std::vector<Vec3> vertices_; // the triangles' corners (a copy)
   std::vector<int> outside_;   // the primitives kept out of the tree, by number, increasing
-  SphereLanes outsideSpheres_; // those of them that are spheres, four at a time where the CPU can (AVX2)
-  std::vector<int> outsideSphereIndex_;               // their numbers, by place in outsideSpheres_
+  // Those of them that are spheres: four at a time where the CPU can (AVX2), from kOutsideLanesMin spheres;
+  // fewer (a ground sphere alone) one by one, which is cheaper than a group of four with empty lanes.
+  static constexpr std::size_t kOutsideLanesMin = 4;
+  SphereLanes outsideLanes_;
+  std::vector<SpherePrimitive> outsideSpheres_;
+  std::vector<int> outsideSphereIndex_; // their numbers, by place in outsideLanes_
   std::vector<TrianglePrimitive> outsideTriangles_;   // those that are triangles (corners in vertices_)
   int depth_ = 0;
   bool eightAtOnce_ = false; // the boxes eight at a time (AVX2)

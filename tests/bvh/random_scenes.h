@@ -129,7 +129,8 @@ inline std::vector<Sphere> roomScene(Random& random, int n)
                         Sphere{Vec3(50, 681.6 - 0.27, 81.6), 600, 0}};
   for (int i = 0; i < n; ++i) {
     const bool behind = i % 10 != 0;
-    const Vec3 c(random.uniform(0, 100), random.uniform(0, 80), behind ? random.uniform(-60, -2) : random.uniform(5, 165));
+    const Real z = behind ? random.uniform(-60, -2) : random.uniform(5, 165);
+    const Vec3 c(random.uniform(0, 100), random.uniform(0, 80), z);
     s.push_back(Sphere{c, random.uniform(Real(0.3), Real(1.5)), 0});
   }
   return s;
