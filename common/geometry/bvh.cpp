@@ -292,12 +292,13 @@ private:
 /// [outside]
 // The primitives to keep out of the tree (Bvh::outsidePrimitives), by number, increasing. Rank the kMaxOutside
 // biggest boxes by surface area (the lower number first on a tie); the box of everything ranked after rank j is
-// rest(j). Take the deepest rank j whose box has at least kHugeAreaRatio times rest(j)'s area: ranks 1..j go out
-// (each is at least as big as rank j, and the tree keeps only rest(j)). At least one primitive stays in the tree.
+// rest(j). Take the deepest rank j whose box has at least kHugeAreaRatio times rest(j)'s area and overlaps it:
+// ranks 1..j go out (each is at least as big as rank j, and the tree keeps only rest(j)). At most a quarter of the
+// primitives go out (each costs every ray a test, and a tree over a handful costs little anyway).
 std::vector<int> chooseOutside(const std::vector<BuildItem>& items)
 {
   const std::size_t n = items.size();
-  const std::size_t k = std::min<std::size_t>(std::size_t(kMaxOutside), n - 1);
+  const std::size_t k = std::min<std::size_t>(std::size_t(kMaxOutside), n / 4);
   if (k == 0)
     return {};
   // The k biggest, biggest first, in one pass (a million triangles: no sort, no copy).
@@ -328,7 +329,10 @@ std::vector<int> chooseOutside(const std::vector<BuildItem>& items)
       rest = rest.merged(items[i].bounds);
   std::size_t out = 0;
   for (std::size_t j = top.size(); j >= 1; --j) {
-    if (top[j - 1].area >= kHugeAreaRatio * rest.surfaceArea()) {
+    const Bounds3& box = items[top[j - 1].item].bounds;
+    const bool empty = box.lo.x > rest.hi.x || box.lo.y > rest.hi.y || box.lo.z > rest.hi.z || rest.lo.x > box.hi.x ||
+                       rest.lo.y > box.hi.y || rest.lo.z > box.hi.z; // the two boxes do not overlap
+    if (top[j - 1].area >= kHugeAreaRatio * rest.surfaceArea() && !empty) {
       out = j;
       break;
     }

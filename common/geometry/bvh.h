@@ -116,7 +116,8 @@ struct BvhBuildOptions {
 };
 
 /// A primitive stays out of the tree when its box's surface area is at least this many times that of the box of
-/// everything smaller than it that goes into the tree (twice as wide; see Bvh::outsidePrimitives).
+/// everything smaller than it that goes into the tree (twice as wide), and overlaps that box (see
+/// Bvh::outsidePrimitives).
 inline constexpr Real kHugeAreaRatio = 4;
 
 /// Most primitives kept out of the tree: each costs every ray one primitive test.
@@ -202,11 +203,12 @@ public:
   }
   /// The huge primitives kept out of the tree (BvhBuildOptions::hugeOutside), by number, in increasing order: tested
   /// one after the other by every query, before the tree. They are the largest set of the biggest primitives (by
-  /// the surface area of their boxes, at most kMaxOutside) in which each one's box has at least kHugeAreaRatio
-  /// times the area of the box of everything the tree keeps. Such a box holds the whole tree's: in the tree it would
-  /// be in every node above the others, and every ray would walk down to it; outside, it costs one test.
-  /// (Smallpt's walls and lamp, the tutorial's ground sphere, a floor quad under a model; never one primitive among
-  /// others of its size.) Empty when the tree holds everything.
+  /// the surface area of their boxes, at most kMaxOutside and a quarter of all) in which the smallest one's box has
+  /// at least kHugeAreaRatio times the area of the box of everything the tree keeps, and overlaps it. Such a box
+  /// dwarfs the tree's contents: in the tree it would widen every node above them, and most rays would walk down to
+  /// it; outside, it costs one test. (Smallpt's walls and lamp, the tutorial's ground sphere, a sky sphere, a floor
+  /// under a model; never one primitive among others of its size, nor a big one away from the rest.) Empty when the
+  /// tree holds everything.
   const std::vector<int>& outsidePrimitives() const { return outside_; }
   /// The tree as built (binary), root first; empty for an empty tree, or unless built with
   /// BvhBuildOptions::keepBinaryTree.
