@@ -292,6 +292,65 @@ private:
   BvhBuildOptions options_;
 };
 
+// ---- Huge primitives -----------------------------------------------------------------------------------------
+
+/// [outside]
+// The primitives to keep out of the tree (Bvh::outsidePrimitives), by number, increasing. Rank the kMaxOutside
+// biggest boxes by surface area (the lower number first on a tie); the box of everything ranked after rank j is
+// rest(j). Take the deepest rank j whose box has at least kHugeAreaRatio times rest(j)'s area and overlaps it:
+// ranks 1..j go out (each is at least as big as rank j, and the tree keeps only rest(j)). At most a quarter of the
+// primitives go out (each costs every ray a test, and a tree over a handful costs little anyway).
+std::vector<int> chooseOutside(const std::vector<BuildItem>& items)
+{
+  const std::size_t n = items.size();
+  const std::size_t k = std::min<std::size_t>(std::size_t(kMaxOutside), n / 4);
+  if (k == 0)
+    return {};
+  // The k biggest, biggest first, in one pass (a million triangles: no sort, no copy).
+  struct Ranked {
+    Real area;
+    std::size_t item;
+  };
+  std::vector<Ranked> top;
+  top.reserve(k + 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Real area = items[i].bounds.surfaceArea();
+    if (top.size() == k && !(area > top.back().area))
+      continue;
+    std::size_t at = top.size();
+    while (at > 0 && area > top[at - 1].area)
+      --at;
+    top.insert(top.begin() + std::ptrdiff_t(at), Ranked{area, i});
+    if (top.size() > k)
+      top.pop_back();
+  }
+  // rest(k): everything but the ranked; then rest(j − 1) = rest(j) and rank j.
+  std::vector<char> ranked(n, 0);
+  for (const Ranked& r : top)
+    ranked[r.item] = 1;
+  Bounds3 rest;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!ranked[i])
+      rest = rest.merged(items[i].bounds);
+  std::size_t out = 0;
+  for (std::size_t j = top.size(); j >= 1; --j) {
+    const Bounds3& box = items[top[j - 1].item].bounds;
+    const bool empty = box.lo.x > rest.hi.x || box.lo.y > rest.hi.y || box.lo.z > rest.hi.z || rest.lo.x > box.hi.x ||
+                       rest.lo.y > box.hi.y || rest.lo.z > box.hi.z; // the two boxes do not overlap
+    if (top[j - 1].area >= kHugeAreaRatio * rest.surfaceArea() && !empty) {
+      out = j;
+      break;
+    }
+    rest = rest.merged(items[top[j - 1].item].bounds);
+  }
+  std::vector<int> numbers;
+  for (std::size_t j = 0; j < out; ++j)
+    numbers.push_back(items[top[j].item].index);
+  std::sort(numbers.begin(), numbers.end());
+  return numbers;
+}
+/// [outside]
+
 // ---- Lanes: four or eight boxes at a time ---------------------------------------------------------------------
 
 // Four or eight floats, and as many lanes' yes (all bits set) or no: GCC's vector extensions, which clang builds
@@ -435,10 +494,10 @@ Bvh::Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options)
 Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::span<const Triangle> triangles,
          const BvhBuildOptions& options)
 {
-  const std::size_t count = spheres.size() + triangles.size();
-  if (count == 0)
+  const std::size_t all = spheres.size() + triangles.size();
+  if (all == 0)
     return;
-  std::vector<BuildItem> items(count);
+  std::vector<BuildItem> items(all);
   for (std::size_t i = 0; i < spheres.size(); ++i)
     items[i] = BuildItem{sphereBounds(spheres[i]), int(i)};
   for (std::size_t j = 0; j < triangles.size(); ++j) {
@@ -447,6 +506,34 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
         BuildItem{triangleBounds(vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]), int(spheres.size() + j)};
   }
   eightAtOnce_ = options.eightAtOnce && cpuHasAvx2();
+
+  // The huge primitives stay out of the tree, in their own short lists (numbers in increasing order: spheres
+  // first, so the triangles' loop may keep the strict "nearer" of the brute-force loop).
+  // (Not in a scene where something moves: the lists outside test spheres where they are at time 0.)
+  const bool moving = std::any_of(spheres.begin(), spheres.end(), [](const Sphere& s) { return s.moving(); });
+  if (options.hugeOutside && !moving)
+    outside_ = chooseOutside(items);
+  if (!outside_.empty()) {
+    std::vector<Sphere> outsideSpheres;
+    for (const int index : outside_)
+      if (std::size_t(index) < spheres.size()) {
+        const Sphere& sphere = spheres[std::size_t(index)];
+        outsideSpheres.push_back(sphere);
+        outsideSpheres_.push_back(SpherePrimitive{sphere.center, sphere.radius, index, false});
+        outsideSphereIndex_.push_back(index);
+      } else {
+        const Triangle& tri = triangles[std::size_t(index) - spheres.size()];
+        outsideTriangles_.push_back(TrianglePrimitive{{tri.v[0], tri.v[1], tri.v[2]}, index, false});
+      }
+    if (outsideSpheres.size() >= kOutsideLanesMin && laneTestAvailable(LaneTest::FourAtOnce)) {
+      outsideLanes_ = SphereLanes(outsideSpheres, LaneTest::FourAtOnce);
+      outsideSpheres_.clear();
+    }
+    std::erase_if(items, [this](const BuildItem& item) {
+      return std::binary_search(outside_.begin(), outside_.end(), item.index);
+    });
+  }
+  const std::size_t count = items.size();
   // The primitives' numbers in the order the build left them (leaf by leaf); the builder, and its items, go as soon
   // as the nodes are made, before the primitives' own copies are (the build's memory peak for a big mesh).
   std::vector<int> order(count);
@@ -466,7 +553,6 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   // leaf's offset becomes its first primitive's place in its kind's list.
   std::vector<std::uint32_t> placeInKind(count);
   // (A still scene keeps no velocities: its queries never look at one.)
-  const bool moving = std::any_of(spheres.begin(), spheres.end(), [](const Sphere& s) { return s.moving(); });
   spheres_.reserve(spheres.size());
   triangles_.reserve(triangles.size());
   for (std::size_t k = 0; k < count; ++k) {
@@ -585,12 +671,14 @@ std::uint32_t Bvh::collapse(std::uint32_t node)
 /// [traverse]
 // (flatten: inline the sphere and triangle tests into the loops, as they are in the scene's flat loop; a call per
 // primitive costs more than the test.)
-template <bool kAnyHit, bool kCountWork, class V> [[gnu::flatten]] Bvh::Traversal Bvh::traverse(const Ray& ray) const
+template <bool kAnyHit, bool kCountWork, class V>
+[[gnu::flatten]] Bvh::Traversal Bvh::traverse(const Ray& ray, Traversal found) const
 {
-  Traversal found{ray.tmax, -1, BvhWork{}};
   if (wideNodes_.empty())
     return found;
   BoxRay<V> boxRay = prepareBoxRay<V>(ray);
+  if (found.primitive >= 0) // a primitive outside the tree was hit: boxes beyond it are skipped
+    fill(boxRay.tmax, floatAbove(found.t));
   // The nearest hit so far, rounded up to a float: a box the ray enters beyond it is skipped.
   float tNearest = boxRay.tmax[0];
 
@@ -710,19 +798,71 @@ template <bool kAnyHit, bool kCountWork, class V> [[gnu::flatten]] Bvh::Traversa
 // The traversal with a node's eight boxes in one register, built for AVX2 (flatten: all of it, the sphere tests
 // too, is inlined and built so). The same float operations as four at a time, so the same boxes, bit for bit.
 template <bool kAnyHit, bool kCountWork>
-RAYLIFE_AVX2 [[gnu::flatten]] Bvh::Traversal Bvh::traverseEight(const Ray& ray) const
+RAYLIFE_AVX2 [[gnu::flatten]] Bvh::Traversal Bvh::traverseEight(const Ray& ray, Traversal found) const
 {
-  return traverse<kAnyHit, kCountWork, Float8>(ray);
+  return traverse<kAnyHit, kCountWork, Float8>(ray, found);
 }
 #endif
 
+/// [testOutside]
+// The primitives outside the tree, before it: the spheres (four at a time when there are enough), then the
+// triangles one by one. The
+// nearest of them (or any, for a shadow ray) is where the tree's walk starts from: its boxes beyond it are skipped.
+template <bool kAnyHit, bool kCountWork> Bvh::Traversal Bvh::testOutside(const Ray& ray) const
+{
+  Traversal found{ray.tmax, -1, BvhWork{}};
+  if (outsideLanes_.size() > 0) {
+    if constexpr (kCountWork)
+      found.work.primitivesTested += std::uint32_t(outsideLanes_.size());
+    if constexpr (kAnyHit) {
+      if (outsideLanes_.occluded(ray))
+        return Traversal{ray.tmax, outsideSphereIndex_[0], found.work}; // some blocker: which one does not matter
+    } else if (const std::optional<SphereHit> h = outsideLanes_.intersect(ray)) {
+      found.t = h->t;
+      found.primitive = outsideSphereIndex_[std::size_t(h->sphere)];
+    }
+  }
+  for (const SpherePrimitive& p : outsideSpheres_) { // (the brute-force loop's own: nearer ones shrink the interval)
+    if constexpr (kCountWork)
+      found.work.primitivesTested += 1;
+    if (const std::optional<Real> t =
+            intersectSphere(ray.origin, ray.direction, p.center, p.radius, ray.tmin, found.t)) {
+      if constexpr (kAnyHit)
+        return Traversal{*t, p.index, found.work};
+      found.t = *t;
+      found.primitive = p.index;
+    }
+  }
+  for (const TrianglePrimitive& p : outsideTriangles_) {
+    if constexpr (kCountWork)
+      found.work.primitivesTested += 1;
+    // (Up to found.t: a triangle's number is above every sphere's, so on a tie the sphere stays.)
+    const std::optional<TriangleHit<Real>> h = intersectTriangle(
+        ray.origin, ray.direction, vertices_[p.v[0]], vertices_[p.v[1]], vertices_[p.v[2]], ray.tmin, found.t);
+    if (h) {
+      if constexpr (kAnyHit)
+        return Traversal{h->t, p.index, found.work};
+      found.t = h->t;
+      found.primitive = p.index;
+    }
+  }
+  return found;
+}
+/// [testOutside]
+
 template <bool kAnyHit, bool kCountWork> Bvh::Traversal Bvh::dispatch(const Ray& ray) const
 {
+  Traversal found{ray.tmax, -1, BvhWork{}};
+  if (!outside_.empty()) {
+    found = testOutside<kAnyHit, kCountWork>(ray);
+    if (kAnyHit && found.primitive >= 0)
+      return found;
+  }
 #if RAYLIFE_HAS_AVX2
   if (eightAtOnce_)
-    return traverseEight<kAnyHit, kCountWork>(ray);
+    return traverseEight<kAnyHit, kCountWork>(ray, found);
 #endif
-  return traverse<kAnyHit, kCountWork, Float4>(ray);
+  return traverse<kAnyHit, kCountWork, Float4>(ray, found);
 }
 
 std::optional<BvhHit> Bvh::intersect(const Ray& ray) const

@@ -22,6 +22,7 @@
 #include "core/math.h"
 #include "geometry/ray.h"
 #include "geometry/sphere.h"
+#include "geometry/sphere_lanes.h"
 #include "geometry/triangle.h"
 
 #include <cstdint>
@@ -108,7 +109,19 @@ struct BvhBuildOptions {
   /// Keep the binary tree (nodes(), sahCost()) after the wide tree is made from it. Off, it is freed: the queries
   /// never use it, and it is 32 bytes a node (about 42 MB for a million triangles).
   bool keepBinaryTree = false;
+  /// Keep huge primitives out of the tree (see Bvh::outsidePrimitives): walls, floors, a ground or sky sphere, whose
+  /// box would hold most of the others'. They are tested one after the other before the tree is walked. Off: every
+  /// primitive goes into the tree. Either way the same hits, bit for bit.
+  bool hugeOutside = true;
 };
+
+/// A primitive stays out of the tree when its box's surface area is at least this many times that of the box of
+/// everything smaller than it that goes into the tree (twice as wide), and overlaps that box (see
+/// Bvh::outsidePrimitives).
+inline constexpr Real kHugeAreaRatio = 4;
+
+/// Most primitives kept out of the tree: each costs every ray one primitive test.
+inline constexpr int kMaxOutside = 16;
 
 /// The relative costs the SAH weighs (only their ratio matters): one box test, and one primitive test (a sphere
 /// and a triangle cost about the same).
@@ -183,8 +196,21 @@ public:
   /// occluded, also counting the work.
   BvhTracedOcclusion occludedWithWork(const Ray& ray) const;
 
-  /// Primitives (spheres and triangles) the tree was built over (0 for an empty tree).
-  std::size_t primitiveCount() const { return spheres_.size() + triangles_.size(); }
+  /// Primitives (spheres and triangles) the tree was built over, those kept outside it included (0 for an empty
+  /// tree).
+  std::size_t primitiveCount() const
+  {
+    return spheres_.size() + triangles_.size() + outside_.size();
+  }
+  /// The huge primitives kept out of the tree (BvhBuildOptions::hugeOutside), by number, in increasing order: tested
+  /// one after the other by every query, before the tree. They are the largest set of the biggest primitives (by
+  /// the surface area of their boxes, at most kMaxOutside and a quarter of all) in which the smallest one's box has
+  /// at least kHugeAreaRatio times the area of the box of everything the tree keeps, and overlaps it. Such a box
+  /// dwarfs the tree's contents: in the tree it would widen every node above them, and most rays would walk down to
+  /// it; outside, it costs one test. (Smallpt's walls and lamp, the tutorial's ground sphere, a sky sphere, a floor
+  /// under a model; never one primitive among others of its size, nor a big one away from the rest.) Empty when the
+  /// tree holds everything.
+  const std::vector<int>& outsidePrimitives() const { return outside_; }
   /// The tree as built (binary), root first; empty for an empty tree, or unless built with
   /// BvhBuildOptions::keepBinaryTree.
   const std::vector<BvhNode>& nodes() const { return nodes_; }
@@ -230,8 +256,11 @@ private:
   };
   // The traversal, with V the lanes of the box test (four or eight floats); the eight-lane one built for AVX2;
   // and the choice between them.
-  template <bool kAnyHit, bool kCountWork, class V> Traversal traverse(const Ray& ray) const;
-  template <bool kAnyHit, bool kCountWork> Traversal traverseEight(const Ray& ray) const;
+  // `found`: what the primitives outside the tree gave (the nearest hit so far, or the ray's tmax and −1).
+  template <bool kAnyHit, bool kCountWork, class V> Traversal traverse(const Ray& ray, Traversal found) const;
+  template <bool kAnyHit, bool kCountWork> Traversal traverseEight(const Ray& ray, Traversal found) const;
+  // The primitives outside the tree, one after the other (the nearest hit, or any hit), then the tree.
+  template <bool kAnyHit, bool kCountWork> Traversal testOutside(const Ray& ray) const;
   template <bool kAnyHit, bool kCountWork> Traversal dispatch(const Ray& ray) const;
   // The binary nodes a wide node made from binary interior `node` takes as its children (see collapse).
   int wideChildren(std::uint32_t node, std::uint32_t (&children)[BvhWideNode::kWidth]) const;
@@ -244,6 +273,14 @@ private:
   std::vector<TrianglePrimitive> triangles_;
   std::vector<Vec3> vertices_; // the triangles' corners (a copy)
   std::vector<Vec3> velocities_; // per entry of spheres_ when some sphere moves; empty for a still scene
+  std::vector<int> outside_;   // the primitives kept out of the tree, by number, increasing
+  // Those of them that are spheres: four at a time where the CPU can (AVX2), from kOutsideLanesMin spheres;
+  // fewer (a ground sphere alone) one by one, which is cheaper than a group of four with empty lanes.
+  static constexpr std::size_t kOutsideLanesMin = 4;
+  SphereLanes outsideLanes_;
+  std::vector<SpherePrimitive> outsideSpheres_;
+  std::vector<int> outsideSphereIndex_; // their numbers, by place in outsideLanes_
+  std::vector<TrianglePrimitive> outsideTriangles_;   // those that are triangles (corners in vertices_)
   int depth_ = 0;
   bool eightAtOnce_ = false; // the boxes eight at a time (AVX2)
 };

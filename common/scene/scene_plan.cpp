@@ -9,6 +9,8 @@ ScenePlan planScene(const Scene& scene, unsigned uses)
   plan.spheres = scene.spheres.size();
   plan.bvh = scene.usesAccelerator();
   plan.lanes = scene.usesLanes();
+  if (plan.bvh)
+    plan.outsideTree = scene.accelerator.outsidePrimitives();
   if (uses & kUsesPointLights)
     plan.pointLights = scene.lights.size();
   plan.triangles = scene.triangles.size();
@@ -37,6 +39,39 @@ std::vector<std::string> describePlan(const ScenePlan& plan)
                             : std::string(" -> flat list: each ray tests every one") +
                                   (plan.lanes ? ", four spheres at a time" : "") + " (more than " +
                                   std::to_string(kFlatListMaxPrimitives) + " go in a BVH, chapter 9)"));
+  if (!plan.outsideTree.empty()) {
+    // "spheres 0-5, 8; triangle 3": the numbers of each kind, runs shortened.
+    std::vector<std::size_t> kinds[2]; // spheres' numbers, triangles' (their own, from 0)
+    for (const int p : plan.outsideTree)
+      std::size_t(p) < plan.spheres ? kinds[0].push_back(std::size_t(p))
+                                    : kinds[1].push_back(std::size_t(p) - plan.spheres);
+    std::string list;
+    for (int kind = 0; kind < 2; ++kind) {
+      const std::vector<std::size_t>& v = kinds[kind];
+      if (v.empty())
+        continue;
+      list += list.empty() ? "" : "; ";
+      list += kind == 0 ? (v.size() == 1 ? "sphere " : "spheres ") : (v.size() == 1 ? "triangle " : "triangles ");
+      for (std::size_t i = 0; i < v.size();) {
+        std::size_t j = i;
+        while (j + 1 < v.size() && v[j + 1] == v[j] + 1)
+          ++j;
+        list += i == 0 ? "" : ", ";
+        list += std::to_string(v[i]);
+        if (j > i) {
+          list += '-';
+          list += std::to_string(v[j]);
+        }
+        i = j + 1;
+      }
+    }
+    std::string line = "plan: " + count(plan.outsideTree.size(), "huge primitive", "huge primitives");
+    line += " outside the tree, tested first (each box at least ";
+    line += std::to_string(int(kHugeAreaRatio));
+    line += "x the area of the tree's): ";
+    line += list;
+    lines.push_back(line);
+  }
   if (uses & kSamplesLights) {
     const std::string lights =
         count(plan.emitters, "emitter", "emitters") + ", " + count(plan.pointLights, "point light", "point lights");

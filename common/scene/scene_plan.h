@@ -38,6 +38,9 @@ struct ScenePlan {
   std::size_t triangles = 0;    ///< Triangles in the scene (all its meshes').
   bool bvh = false;             ///< True: queries go through the BVH; false: a flat loop (≤ kFlatListMaxPrimitives).
   bool lanes = false;           ///< The flat loop tests four spheres at once (Scene::usesLanes; CPUs with AVX2).
+  /// The huge primitives the BVH keeps out of its tree and tests first (Bvh::outsidePrimitives), by number; empty
+  /// without a BVH.
+  std::vector<int> outsideTree;
   std::size_t pointLights = 0;  ///< Point lights in the scene (counted only if the chapter reads them).
   std::size_t emitters = 0;     ///< Spheres and triangles with an emissive material (counted only if the chapter
                                 ///< reads emission).

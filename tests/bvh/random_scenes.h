@@ -118,6 +118,24 @@ inline std::vector<Sphere> groundScene(Random& random, int n)
   return s;
 }
 
+// Smallpt's room: six walls of radius 1e5, its lamp of radius 600 mostly above the ceiling and two balls (spheres
+// 0 to 8), then n small spheres, nine in ten behind the back wall (z < 0), the others in the room.
+inline std::vector<Sphere> roomScene(Random& random, int n)
+{
+  std::vector<Sphere> s{Sphere{Vec3(1e5 + 1, 40.8, 81.6), 1e5, 0},     Sphere{Vec3(-1e5 + 99, 40.8, 81.6), 1e5, 0},
+                        Sphere{Vec3(50, 40.8, 1e5), 1e5, 0},           Sphere{Vec3(50, 40.8, -1e5 + 170), 1e5, 0},
+                        Sphere{Vec3(50, 1e5, 81.6), 1e5, 0},           Sphere{Vec3(50, -1e5 + 81.6, 81.6), 1e5, 0},
+                        Sphere{Vec3(27, 16.5, 47), 16.5, 0},           Sphere{Vec3(73, 16.5, 78), 16.5, 0},
+                        Sphere{Vec3(50, 681.6 - 0.27, 81.6), 600, 0}};
+  for (int i = 0; i < n; ++i) {
+    const bool behind = i % 10 != 0;
+    const Real z = behind ? random.uniform(-60, -2) : random.uniform(5, 165);
+    const Vec3 c(random.uniform(0, 100), random.uniform(0, 80), z);
+    s.push_back(Sphere{c, random.uniform(Real(0.3), Real(1.5)), 0});
+  }
+  return s;
+}
+
 // ---- Rays of every awkward kind -------------------------------------------------------------------------------
 inline Ray randomRay(Random& random, const std::vector<Sphere>& spheres, Real extent)
 {

@@ -10,6 +10,7 @@
 
 #include <cstring>
 #include <functional>
+#include <span>
 #include <sstream>
 
 using namespace raylife;
@@ -102,6 +103,10 @@ TEST_CASE("the BVH finds exactly the brute-force hit for a million random rays")
   SECTION("duplicate and concentric spheres") { checkAgreement(duplicateScene(random, 300), 200000, 3, 12); }
   SECTION("a lattice of touching spheres") { checkAgreement(latticeScene(7), 150000, 4, 8); }
   SECTION("a huge ground sphere under small ones") { checkAgreement(groundScene(random, 200), 150000, 5, 12); }
+  SECTION("huge walls and a huge lamp over clutter (smallpt's room)")
+  {
+    checkAgreement(roomScene(random, 400), 150000, 6, 150);
+  }
   SECTION("tiny scenes")
   {
     for (int n : {1, 2, 3, 5, 9, 17})
@@ -263,14 +268,18 @@ TEST_CASE("the tree is well formed - every sphere in one leaf - every box holds 
   const Bvh bvh(spheres, keep);
   const std::vector<BvhNode>& nodes = bvh.nodes();
   REQUIRE(!nodes.empty());
+  // The ground is kept out of the tree (its box is far more than four times the small spheres'); the tree holds
+  // every other sphere once.
+  REQUIRE(bvh.outsidePrimitives() == std::vector<int>{0});
+  const std::size_t inTree = spheres.size() - 1;
   // Walk the tree from the root, checking each child lies inside its parent and each leaf's spheres are covered.
-  std::vector<int> seen(spheres.size(), 0);
+  std::vector<int> seen(inTree, 0);
   std::function<void(std::uint32_t, int)> walk = [&](std::uint32_t i, int level) {
     REQUIRE(i < nodes.size());
     REQUIRE(level <= Bvh::kMaxDepth);
     const BvhNode& n = nodes[i];
     if (n.count > 0) {
-      REQUIRE(std::size_t(n.offset) + n.count <= spheres.size());
+      REQUIRE(std::size_t(n.offset) + n.count <= inTree);
       for (std::uint32_t k = n.offset; k < n.offset + n.count; ++k)
         seen[k] += 1;
       return;
@@ -286,8 +295,8 @@ TEST_CASE("the tree is well formed - every sphere in one leaf - every box holds 
   walk(0, 1);
   for (int s : seen)
     REQUIRE(s == 1);
-  // The root box holds every sphere.
-  for (const Sphere& s : spheres)
+  // The root box holds every sphere of the tree.
+  for (const Sphere& s : std::span(spheres).subspan(1))
     for (int a = 0; a < 3; ++a) {
       REQUIRE(Real(nodes[0].bounds[0][a]) <= s.center[a] - s.radius);
       REQUIRE(Real(nodes[0].bounds[1][a]) >= s.center[a] + s.radius);
@@ -508,4 +517,62 @@ TEST_CASE("the tree does a fraction of the flat loop's work on a large scene")
   }
   CHECK(loop == 2000u * 1000u * std::uint64_t(BvhCosts{}.intersection));
   CHECK(tree * 10 < loop);
+}
+
+TEST_CASE("huge primitives stay out of the tree - walls, a lamp, a ground sphere - and nothing else does")
+{
+  Random random(8);
+  // Smallpt's six walls (their boxes hold the room and the clutter many times over) are kept out, with its lamp
+  // when the clutter reaches its box (just below the ceiling); the balls and the clutter stay in.
+  const std::vector<Sphere> room = roomScene(random, 300);
+  const std::vector<int> walls{0, 1, 2, 3, 4, 5}, wallsAndLamp{0, 1, 2, 3, 4, 5, 8};
+  CHECK((Bvh(room).outsidePrimitives() == walls || Bvh(room).outsidePrimitives() == wallsAndLamp));
+  std::vector<Sphere> roomUnderLamp = room;
+  roomUnderLamp.push_back(Sphere{Vec3(50, 81, 81.6), Real(0.5), 0}); // touching the lamp's box
+  CHECK(Bvh(roomUnderLamp).outsidePrimitives() == wallsAndLamp);
+  CHECK(Bvh(room).primitiveCount() == room.size());
+  // The tutorial's ground sphere.
+  CHECK(Bvh(groundScene(random, 500)).outsidePrimitives() == std::vector<int>{0});
+  // Spheres of like sizes: none (the biggest is far from four times the area of the box of the others).
+  CHECK(Bvh(uniformScene(random, 300)).outsidePrimitives().empty());
+  CHECK(Bvh(clusteredScene(random, 300)).outsidePrimitives().empty());
+  CHECK(Bvh(latticeScene(5)).outsidePrimitives().empty());
+  // One sphere four times the area of the box of the rest is out; a little less than that is in.
+  std::vector<Sphere> pair = uniformScene(random, 20);
+  for (Sphere& s : pair)
+    s = Sphere{s.center * Real(0.1), Real(0.05), 0}; // all inside [−1.05, 1.05]³
+  pair.push_back(Sphere{Vec3(0), Real(2.2), 0});      // a box 4.4 wide: (4.4 / 2.1)² ≈ 4.4 times the area
+  CHECK(Bvh(pair).outsidePrimitives() == std::vector<int>{20});
+  pair.back().radius = Real(1.9); // (3.8 / 2.1)² ≈ 3.3
+  CHECK(Bvh(pair).outsidePrimitives().empty());
+  // A big sphere away from the others, not over them, stays in.
+  pair.back() = Sphere{Vec3(10, 0, 0), Real(5), 0};
+  CHECK(Bvh(pair).outsidePrimitives().empty());
+  // At most kMaxOutside, and at most a quarter of the primitives.
+  std::vector<Sphere> nested;
+  for (int i = 0; i < 80; ++i)
+    nested.push_back(Sphere{Vec3(0), std::pow(Real(3), Real(i)), 0});
+  CHECK(Bvh(nested).outsidePrimitives().size() == std::size_t(kMaxOutside));
+  nested.resize(40);
+  CHECK(Bvh(nested).outsidePrimitives().size() == 10);
+  const std::vector<Sphere> four{Sphere{Vec3(0), 1000, 0}, Sphere{Vec3(0), 1, 0}, Sphere{Vec3(1), 1, 0},
+                                 Sphere{Vec3(2), 1, 0}};
+  CHECK(Bvh(four).outsidePrimitives() == std::vector<int>{0});
+  CHECK(Bvh(std::vector<Sphere>(four.begin(), four.begin() + 3)).outsidePrimitives().empty());
+  // Off, the tree holds everything, with the same hits.
+  BvhBuildOptions all;
+  all.hugeOutside = false;
+  const Bvh inside(room, all), outside(room);
+  CHECK(inside.outsidePrimitives().empty());
+  Random rays(9);
+  for (int i = 0; i < 20000; ++i) {
+    const Ray ray = randomRay(rays, room, 150);
+    const std::optional<BvhHit> a = inside.intersect(ray), b = outside.intersect(ray);
+    REQUIRE(a.has_value() == b.has_value());
+    if (a) {
+      REQUIRE(a->primitive == b->primitive);
+      REQUIRE(std::memcmp(&a->t, &b->t, sizeof(Real)) == 0);
+    }
+    REQUIRE(inside.occluded(ray) == outside.occluded(ray));
+  }
 }

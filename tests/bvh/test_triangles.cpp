@@ -233,6 +233,28 @@ TEST_CASE("the BVH over triangles and spheres finds exactly the brute-force hit 
     s.add(triangleSoup(random, 150, 11));
     checkAgreement(s, 250000, 4, 12);
   }
+  SECTION("a huge floor quad through a flat layer of triangles and spheres, kept out of the tree")
+  {
+    // The layer is 20 wide and about 1 high; the floor (two triangles, one of them twice) crosses it: its box, 800
+    // wide, covers over half the layer's.
+    Mixed s;
+    s.spheres = uniformScene(random, 20);
+    for (Sphere& sphere : s.spheres) {
+      sphere.center.y *= Real(0.05);
+      sphere.radius *= Real(0.05);
+    }
+    TestMesh<Real> room;
+    const Real w = 400;
+    room.vertices = {Vec3(-w, 0, -w), Vec3(w, 0, -w), Vec3(w, 0, w), Vec3(-w, 0, w)};
+    room.triangles = {{0, 2, 1}, {0, 3, 2}, {0, 3, 2}};
+    s.add(room);
+    TestMesh<Real> soup = triangleSoup(random, 200, 10);
+    for (Vec3& v : soup.vertices)
+      v.y *= Real(0.05);
+    s.add(soup);
+    REQUIRE(Bvh(s.spheres, s.vertices, s.triangles).outsidePrimitives() == std::vector<int>{20, 21, 22});
+    checkAgreement(s, 200000, 5, 12);
+  }
   SECTION("tiny scenes")
   {
     for (int n : {1, 2, 3, 5, 9}) {

@@ -3,12 +3,20 @@
 // scattered over a grid of unit cells around them. The same N and SEED always give the same file.
 //
 // usage: gen_spheres N SEED [--diffuse] > scene.json      (N ≥ 1 spheres in all, the ground included)
+//        gen_spheres clutter BASE.json N SEED X0 Y0 Z0 X1 Y1 Z1 > scene.json
 //
 // scenes/random_spheres.json is `gen_spheres 500 1`; the scaling runs of chapter 9 use N = 10 … 100,000.
+// The second form writes BASE.json with N small diffuse spheres (radius 0.3 to 1.5) added, their centres uniform in
+// the box [X0, X1] × [Y0, Y1] × [Z0, Z1]: clutter where the scene's rays may never go, such as 20,000 spheres behind
+// smallpt's back wall (docs/09_bvh.md: huge primitives stay out of the tree):
+//   gen_spheres clutter scenes/smallpt.json 20000 1 1 1 -100 99 80 -2 > /tmp/smallpt_clutter.json
 #include "core/rng.h"
+
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <cstdlib>
 #include <string>
 #include <vector>
@@ -51,10 +59,45 @@ std::string color(double r, double g, double b)
   return buffer;
 }
 
+// The second form (see the top of the file).
+int clutter(int argc, char** argv)
+{
+  long long n = 0, seed = 0;
+  double box[6];
+  bool ok = argc == 11 && parseCount(argv[3], 1, 10000000, n) && parseCount(argv[4], 0, 1LL << 62, seed);
+  for (int i = 0; ok && i < 6; ++i) {
+    char* end = nullptr;
+    box[i] = std::strtod(argv[5 + i], &end);
+    ok = *argv[5 + i] && *end == '\0' && std::isfinite(box[i]);
+  }
+  if (!ok || box[0] > box[3] || box[1] > box[4] || box[2] > box[5]) {
+    std::fprintf(stderr, "usage: gen_spheres clutter BASE.json N SEED X0 Y0 Z0 X1 Y1 Z1 > scene.json   (1 <= N, "
+                         "X0 <= X1, Y0 <= Y1, Z0 <= Z1)\n");
+    return 2;
+  }
+  std::ifstream in(argv[2]);
+  nlohmann::ordered_json scene = nlohmann::ordered_json::parse(in, nullptr, false);
+  if (!in || scene.is_discarded() || !scene.is_object() || !scene["materials"].is_object()) {
+    std::fprintf(stderr, "gen_spheres: %s: cannot read it as a scene (JSON with \"materials\")\n", argv[2]);
+    return 1;
+  }
+  scene["materials"]["clutter"] = {{"type", "diffuse"}, {"color", {0.5, 0.5, 0.5}}};
+  Random random{std::uint64_t(seed)};
+  for (long long i = 0; i < n; ++i) {
+    const double x = random.uniform(box[0], box[3]), y = random.uniform(box[1], box[4]);
+    const double z = random.uniform(box[2], box[5]), r = random.uniform(0.3, 1.5);
+    scene["spheres"].push_back({{"center", {x, y, z}}, {"radius", r}, {"material", "clutter"}});
+  }
+  std::printf("%s\n", scene.dump(1).c_str());
+  return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv)
 {
+  if (argc > 1 && std::string(argv[1]) == "clutter")
+    return clutter(argc, argv);
   long long n = 0, seed = 0;
   // --diffuse: every material diffuse (the glass, the mirror and the metals keep their colours), the spheres the
   // same: a scene that chapters of local shading (4, 9) render whole.
