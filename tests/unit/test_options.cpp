@@ -4,6 +4,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <limits>
 
 using namespace raylife;
@@ -90,7 +91,22 @@ TEST_CASE("a chapter's options: malformed declarations and undeclared reads are 
   CHECK_THROWS_AS(declared({.name = "heuristic", .kind = OptionKind::Flag}), std::logic_error);
   CHECK_THROWS_AS(declared({.name = "--a=b", .kind = OptionKind::Flag}), std::logic_error);
   CHECK_THROWS_AS(declared({.name = "--k", .kind = OptionKind::Choice, .defaultValue = "x"}), std::logic_error);
-  CHECK_THROWS_AS(declared({.name = "--n", .kind = OptionKind::Integer, .defaultValue = "", .min = 0, .max = 1}),
+  CHECK_THROWS_AS(declared({.name = "--n", .kind = OptionKind::Integer, .defaultValue = "2", .min = 0, .max = 1}),
+                  std::logic_error); // a default outside its own range
+  // No default is allowed (chapter 13's --strategy: all strategies unless given), but then the chapter must ask
+  // given() before reading it.
+  const ChapterOptions none = declared({.name = "--n", .kind = OptionKind::Integer, .min = 0, .max = 1}).chapter;
+  CHECK_FALSE(none.given("--n"));
+  CHECK_THROWS_AS(none.integer("--n"), std::logic_error);
+  CHECK(parse({"--n", "1"}, {{.name = "--n", .kind = OptionKind::Integer, .min = 0, .max = 1}}).chapter.integer("--n") ==
+        1);
+  // inf only where the range is unbounded above (chapter 12's --ao-distance).
+  const ChapterOption distance{.name = "--d", .kind = OptionKind::Number, .defaultValue = "inf", .min = 1e-300,
+                               .max = std::numeric_limits<double>::infinity()};
+  CHECK(std::isinf(parse({}, {distance}).chapter.number("--d")));
+  CHECK(parse({"--d=2.5"}, {distance}).chapter.number("--d") == 2.5);
+  CHECK_THROWS_AS(parse({"--d", "0"}, {distance}), UsageError);
+  CHECK_THROWS_AS(declared({.name = "--x", .kind = OptionKind::Number, .defaultValue = "inf", .min = 0, .max = 1}),
                   std::logic_error);
   CHECK_THROWS_AS(parse({}, {kOwn[1], kOwn[1]}), std::logic_error);
   const ChapterOptions o = parse({}).chapter;
