@@ -49,7 +49,7 @@ int main(int argc, char** argv)
                                          .kind = OptionKind::Number,
                                          .help = "only what lies within D scene units occludes (inf: all)",
                                          .defaultValue = "inf",
-                                         .min = std::numeric_limits<double>::min(),
+                                         .min = 1e-9, // (a distance > 0)
                                          .max = std::numeric_limits<double>::infinity()}}};
   /// [chapter]
   return runChapter(argc, argv, chapter, [](const Scene&, const ChapterOptions& options) -> TraceFunction {
