@@ -16,6 +16,9 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <vector>
+#include <unordered_map>
+#include <string_view>
 
 namespace raylife {
 
@@ -91,6 +94,93 @@ void collect(const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent
 // [weld]
 // Joins the vertices of `data` that have equal positions and normals (all finite), and renumbers the triangles: the
 // vertices sorted by (position, normal), each run of equal ones becoming one. O(n log n) time, 8 bytes a vertex.
+// Checks a PLY file's header before Assimp reads it: Debian's Assimp 5.2 reads past the end of a binary PLY whose
+// header is cut short (found by fuzzing). Every line up to "end_header" must be a known statement with known types,
+// and a binary file must hold at least the bytes its fixed-size elements need. Throws MeshError naming the fault.
+void checkPlyHeader(std::span<const char> bytes, const std::string& name)
+{
+  const std::string_view text(bytes.data(), bytes.size());
+  auto fail = [&](const std::string& why) { throw MeshError(name + ": cannot read it as PLY: " + why); };
+  static const std::unordered_map<std::string_view, std::size_t> kTypeSizes = {
+      {"char", 1},   {"uchar", 1},  {"short", 2},  {"ushort", 2},  {"int", 4},     {"uint", 4},
+      {"float", 4},  {"double", 8}, {"int8", 1},   {"uint8", 1},   {"int16", 2},   {"uint16", 2},
+      {"int32", 4},  {"uint32", 4}, {"float32", 4}, {"float64", 8}};
+  std::size_t at = 0, line = 0;
+  bool binary = false, fixedSoFar = true, ended = false;
+  // The bytes the elements before the first list property need (a list's length is in the data).
+  unsigned long long fixedBytes = 0, rowBytes = 0, rows = 0;
+  while (at < text.size()) {
+    const std::size_t end = text.find('\n', at);
+    if (end == std::string_view::npos)
+      fail("the header has no end_header line");
+    std::string_view l = text.substr(at, end - at);
+    at = end + 1;
+    ++line;
+    if (!l.empty() && l.back() == '\r')
+      l.remove_suffix(1);
+    std::vector<std::string_view> words;
+    for (std::size_t i = 0; i < l.size();) {
+      while (i < l.size() && l[i] == ' ')
+        ++i;
+      std::size_t j = i;
+      while (j < l.size() && l[j] != ' ')
+        ++j;
+      if (j > i)
+        words.push_back(l.substr(i, j - i));
+      i = j;
+    }
+    const std::string where = "header line " + std::to_string(line) + ": ";
+    for (const char c : l)
+      if (static_cast<unsigned char>(c) < 32 && c != '\t')
+        fail(where + "a control character");
+    if (line == 1) {
+      if (l != "ply")
+        fail("it does not start with 'ply'");
+      continue;
+    }
+    if (words.empty() || words[0] == "comment" || words[0] == "obj_info")
+      continue;
+    if (words[0] == "format") {
+      if (words.size() != 3 || (words[1] != "ascii" && words[1] != "binary_little_endian" &&
+                                words[1] != "binary_big_endian"))
+        fail(where + "an unknown format");
+      binary = words[1] != "ascii";
+    } else if (words[0] == "element") {
+      if (words.size() != 3 || words[2].find_first_not_of("0123456789") != std::string_view::npos ||
+          words[2].size() > 12)
+        fail(where + "an element needs a name and a whole count");
+      if (fixedSoFar)
+        fixedBytes += rows * rowBytes;
+      rows = std::stoull(std::string(words[2]));
+      rowBytes = 0;
+    } else if (words[0] == "property") {
+      if (words.size() == 5 && words[1] == "list") {
+        if (!kTypeSizes.count(words[2]) || !kTypeSizes.count(words[3]))
+          fail(where + "an unknown type in a list property");
+        fixedSoFar = false;
+      } else if (words.size() == 3) {
+        const auto type = kTypeSizes.find(words[1]);
+        if (type == kTypeSizes.end())
+          fail(where + "an unknown property type '" + std::string(words[1]) + "'");
+        rowBytes += type->second;
+      } else {
+        fail(where + "a property needs a type and a name");
+      }
+    } else if (words[0] == "end_header") {
+      ended = true;
+      break;
+    } else {
+      fail(where + "an unknown statement '" + std::string(words[0]) + "'");
+    }
+  }
+  if (!ended)
+    fail("the header has no end_header line");
+  if (fixedSoFar)
+    fixedBytes += rows * rowBytes;
+  if (binary && fixedBytes > text.size() - at)
+    fail("the file ends before the data its header announces");
+}
+
 void weld(MeshData& data)
 {
   const std::size_t n = data.positions.size();
@@ -139,6 +229,8 @@ MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std
 {
   if (bytes.empty())
     throw MeshError(name + ": the file is empty");
+  if (format == MeshFormat::Ply)
+    checkPlyHeader(bytes, name);
   Assimp::Importer importer;
   // Keep positions and normals only (less to hold; materials and textures are the scene's business).
   importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS, aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
