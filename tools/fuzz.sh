@@ -50,7 +50,9 @@ if [ "$status" -eq 0 ]; then
     { printf '%s' "$prefix"; cat "$f"; } >"$meshSeeds/$(basename "$f").bin"
   done
   echo "fuzz.sh: fuzzing the mesh files for $seconds s; corpus $meshCorpus, faults into $crashes/"
-  ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_mesh" "$meshCorpus" "$meshSeeds" "$root/tests/fuzz/mesh_regressions" \
+  # (Leaks inside Assimp itself are suppressed: tests/fuzz/lsan_assimp.supp.)
+  ASAN_OPTIONS=detect_leaks=1 LSAN_OPTIONS=suppressions="$root/tests/fuzz/lsan_assimp.supp" \
+    "$build/bin/fuzz_mesh" "$meshCorpus" "$meshSeeds" "$root/tests/fuzz/mesh_regressions" \
     -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1 \
     -artifact_prefix="$crashes/" || status=$?
 fi
