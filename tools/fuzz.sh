@@ -7,6 +7,9 @@
 # keeps its growing corpus in BUILD_DIR/corpus*/ between runs, and leaves any crashing or hanging input in
 # BUILD_DIR/crashes/. (Assimp itself is not instrumented: the mesh fuzzer steers by raylife's code only, but a crash
 # or a sanitizer report anywhere still stops it.)
+# RAYLIFE_FUZZ_MESH=0 skips the mesh fuzzer (CI does: it finds faults inside Debian's Assimp 5.2 itself, an
+# abort in its triangulation and crashes in its OBJ and PLY readers, that raylife can only guard against one by one;
+# those found are guarded and kept in tests/fuzz/mesh_regressions/).
 # Exit status: 0 nothing found, 1 the fuzzer found a fault (copy the input into tests/fuzz/regressions/ once fixed),
 # 2 bad usage. Needs clang, libclang-rt-14-dev and libomp-14-dev (./setup.sh --fuzz).
 set -euo pipefail
@@ -38,7 +41,7 @@ ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_scene" "$corpus" "${seeds[@]}" \
   -dict="$root/tests/fuzz/scene.dict" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
   -max_len=16384 -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
 
-if [ "$status" -eq 0 ]; then
+if [ "$status" -eq 0 ] && [ "${RAYLIFE_FUZZ_MESH:-1}" != 0 ]; then
   # The mesh fuzzer's seeds: its regressions, and small OBJ and PLY files from Assimp's test models (prefixed with the
   # byte that names their format: 'n', even, for OBJ; 'q', odd, for PLY).
   meshCorpus="$build/corpus-mesh"
