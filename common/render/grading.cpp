@@ -235,7 +235,9 @@ Grade gradeStatistically(const Image& image, const Image& reference, const Image
     const double z = sumVar[c] > 0 ? sumDiff[c] / std::sqrt(sumVar[c]) : 0;
     if (!(std::abs(z) <= std::abs(worstMeanZ)))
       worstMeanZ = std::isnan(z) ? INFINITY : z;
-    means += (c ? ", " : "") + format("%+.2f", z);
+    if (c) // (appended in two steps: GCC 12's link-time optimisation warns falsely on "literal" + string)
+      means += ", ";
+    means += format("%+.2f", z);
   }
   const bool sharePass = g.failedPixels <= allowed;
   const bool meanPass = clampedInMean ? worstMeanZ <= setup.meanCritical : std::abs(worstMeanZ) <= setup.meanCritical;
