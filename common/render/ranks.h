@@ -74,7 +74,7 @@ private:
   int rank_ = 0;
   int size_ = 1;
   double combineSeconds_ = 0;
-  const std::atomic<int>* signals_ = nullptr;
+  [[maybe_unused]] const std::atomic<int>* signals_ = nullptr; // (read by the MPI build only)
   std::unique_ptr<Mpi> mpi_;
 };
 
