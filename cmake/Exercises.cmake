@@ -20,7 +20,8 @@ function(raylife_exercise folder binary)
   endif()
   add_executable(${binary}_exercise ${source})
   target_link_libraries(${binary}_exercise PRIVATE raylife::common raylife_warnings)
-  # Until it is written, the stub leaves parameters and helpers unused.
-  target_compile_options(${binary}_exercise PRIVATE -Wno-unused-parameter -Wno-unused-function
-                                                    -Wno-unused-variable)
+  # Until it is written, the stub leaves parameters and helpers unused. (On the source, so the flags come after
+  # -Wextra: clang takes the last one given.)
+  set_source_files_properties(${source} PROPERTIES
+    COMPILE_OPTIONS "-Wno-unused-parameter;-Wno-unused-function;-Wno-unused-variable")
 endfunction()

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Fuzzes the scene loader, then the mesh files, with libFuzzer for SECONDS each (default 60), single process.
 #   tools/fuzz.sh SECONDS [BUILD_DIR]
-# Builds tests/fuzz/fuzz_scene and fuzz_mesh with clang (-fsanitize=fuzzer,address,undefined) in BUILD_DIR (default
-# build-fuzz/). The scene fuzzer is seeded from scenes/, scenes/stress/ and tests/fuzz/regressions/, the mesh fuzzer
+# Builds tests/fuzz/fuzz_scene and fuzz_mesh in BUILD_DIR (default build-asan/) configured by the asan preset: clang,
+# -fsanitize=fuzzer-no-link,address,undefined, the same build in which `cmake --workflow --preset asan` runs the
+# suite, so CI builds the sanitized code once for both. The scene fuzzer is seeded from scenes/, scenes/stress/ and
+# tests/fuzz/regressions/, the mesh fuzzer
 # from tests/fuzz/mesh_regressions/ (and Assimp's test models, where Debian's assimp-testmodels is installed); each
 # keeps its growing corpus in BUILD_DIR/corpus*/ between runs, and leaves any crashing or hanging input in
 # BUILD_DIR/crashes/. (Assimp itself is not instrumented: the mesh fuzzer steers by raylife's code only, but a crash
@@ -20,12 +22,10 @@ if ! [[ "$seconds" =~ ^[1-9][0-9]*$ ]]; then
   exit 2
 fi
 root=$(cd "$(dirname "$0")/.." && pwd)
-build=${2:-$root/build-fuzz}
+build=${2:-$root/build-asan}
 
-flags="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 mkdir -p "$build"
-CC=clang CXX=clang++ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DRAYLIFE_FUZZ=ON \
-  -DCMAKE_CXX_FLAGS="$flags" >"$build/configure.log" 2>&1 || { cat "$build/configure.log" >&2; exit 1; }
+(cd "$root" && cmake --preset asan -B "$build") >"$build/configure.log" 2>&1 || { cat "$build/configure.log" >&2; exit 1; }
 cmake --build "$build" --target fuzz_scene fuzz_mesh -j2
 
 corpus="$build/corpus"
