@@ -73,7 +73,7 @@ int main(int argc, char** argv)
 {
   /// [chapter]
   const ChapterInfo chapter{.binary = "step06_path_tracer",
-                            .defaultScene = "cornell.json",
+                            .defaultScene = "cornell_large_lamp.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesBackground | kUsesEmission | kUsesMirror |
                                     kUsesGlass | kUsesGlossy | kUsesMaxDepth | kUsesMetal |
                                     kUsesLens | kUsesMotion,

@@ -7,7 +7,7 @@ using namespace raylife;
 int main(int argc, char** argv)
 {
   const ChapterInfo chapter{.binary = "step06_path_tracer",
-                            .defaultScene = "cornell.json",
+                            .defaultScene = "cornell_large_lamp.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesBackground | kUsesEmission | kUsesMirror |
                                     kUsesGlass | kUsesGlossy | kUsesMaxDepth,
                             .pixelSampling = PixelSampling::Jittered,

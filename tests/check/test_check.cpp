@@ -109,8 +109,8 @@ TEST_CASE("check: chapter 6 with another seed passes, and so does the tests' cop
 TEST_CASE("check: chapter 6 with its lamp 5% too bright fails")
 {
   TempDir dir;
-  const std::string scene = editedScene("cornell.json", dir.path(), [](json& s) {
-    s["materials"]["lamp"]["emission"] = {12.6, 12.6, 12.6};
+  const std::string scene = editedScene("cornell_large_lamp.json", dir.path(), [](json& s) {
+    s["materials"]["lamp"]["emission"] = {3.15, 3.15, 3.15};
   });
   const Outcome o = renderAndCheck6(STEP06, {scene}, dir.path());
   CHECK(o.status == 1);
@@ -120,8 +120,8 @@ TEST_CASE("check: chapter 6 with its lamp 5% too bright fails")
 TEST_CASE("check: chapter 6 with its lamp moved fails")
 {
   TempDir dir;
-  const std::string scene = editedScene("cornell.json", dir.path(), [](json& s) {
-    s["spheres"][8]["center"] = {40, 66, 81.6};
+  const std::string scene = editedScene("cornell_large_lamp.json", dir.path(), [](json& s) {
+    s["spheres"][8]["center"] = {40, 680.2667, 81.6};
   });
   CHECK(renderAndCheck6(STEP06, {scene}, dir.path()).status == 1);
 }
@@ -129,7 +129,7 @@ TEST_CASE("check: chapter 6 with its lamp moved fails")
 TEST_CASE("check: chapter 6 with a wall's colour changed fails")
 {
   TempDir dir;
-  const std::string scene = editedScene("cornell.json", dir.path(), [](json& s) {
+  const std::string scene = editedScene("cornell_large_lamp.json", dir.path(), [](json& s) {
     s["materials"]["red"]["color"] = {0.75, 0.3, 0.25};
   });
   CHECK(renderAndCheck6(STEP06, {scene}, dir.path()).status == 1);
