@@ -167,7 +167,10 @@ TEST_CASE("every sampled direction towards a triangle light hits it, and its pdf
   int misses = 0, total = 0, bySolidAngle = 0, byArea = 0;
   for (int config = 0; config < 3000; ++config) {
     const Real scale = std::pow(Real(10), Real(rng.next1D() * 6 - 3));
-    const Vec3 p0 = (Vec3(rng.next1D(), rng.next1D(), rng.next1D()) - Real(0.5)) * scale;
+    // (Drawn one statement at a time: the order of a call's arguments is the compiler's choice, and clang and GCC
+    // choose differently.)
+    const Real x = rng.next1D(), y = rng.next1D(), z = rng.next1D();
+    const Vec3 p0 = (Vec3(x, y, z) - Real(0.5)) * scale;
     const Vec3 p1 = p0 + sampleUniformSphere(rng.next2D()) * scale, p2 = p0 + sampleUniformSphere(rng.next2D()) * scale;
     const Vec3 ref = p0 + sampleUniformSphere(rng.next2D()) * scale * std::pow(Real(10), Real(rng.next1D() * 4 - 2));
     const bool spherical = sampledBySolidAngle(triangleSolidAngle(ref, p0, p1, p2));
@@ -190,8 +193,9 @@ TEST_CASE("every sampled direction towards a triangle light hits it, and its pdf
   // At the very edges, by rounding: a direction is a few ulps from where it was aimed, so in float (ulps of 6e-8)
   // far more land just outside a small or distant triangle than in double (126 of 150,000 here against none).
   CHECK(misses <= total / (sizeof(Real) == 4 ? 500 : 10000));
-  CHECK(bySolidAngle > 500);
-  CHECK(byArea > 500);
+  // Both samplers, many times each (about 2,500 and 500 of the 3,000 triangles).
+  CHECK(bySolidAngle > 400);
+  CHECK(byArea > 400);
 }
 
 TEST_CASE("area sampling fails up close to a large triangle light: its variance dwarfs the spherical sampler's")
