@@ -293,7 +293,7 @@ TEST_CASE("a mesh file that crashes the mesh library ends the chapter with one m
   const Outcome o = run(kStep04, {"scene.json", "-o", "out.png", "--quiet"}, dir.path());
   CHECK(o.signal == 0);
   CHECK(o.status == 1);
-  CHECK(o.err == "step04_shadows: scene.json:14:25: /meshes/0/file: crash.ply: the mesh reader crashed (SIGABRT) on "
+  CHECK(o.err == "step04_shadows: scene.json:13:25: /meshes/0/file: crash.ply: the mesh reader crashed (SIGABRT) on "
                  "this file: it is malformed\n");
   CHECK(entries(dir.path()) == std::vector<std::string>{"crash.ply", "scene.json"});
 }
