@@ -247,7 +247,7 @@ void sendError(PipeWriter& out, ErrorKind kind, const std::string& text)
 }
 
 // The child's walk over an Assimp scene: every mesh a node holds, with the transforms of the nodes above it (identity
-// for OBJ and PLY, but applied all the same), sent as a Mesh record. Returns the number of meshes sent, or -1 after
+// for OBJ and PLY, but applied where they are not), sent as a Mesh record. Returns the number of meshes sent, or -1 after
 // sending an Error. It checks only what it must not dereference.
 long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent, PipeWriter& out)
 {
@@ -255,7 +255,7 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
   aiMatrix3x3 normalTransform(transform);
   normalTransform.Inverse().Transpose();
   const bool identity = transform.IsIdentity();
-  constexpr unsigned kChunk = 4096;
+  constexpr std::size_t kChunk = 4096;
   long sent = 0;
   for (unsigned k = 0; k < node.mNumMeshes; ++k) {
     if (node.mMeshes[k] >= scene.mNumMeshes || !scene.mMeshes[node.mMeshes[k]]) {
@@ -274,8 +274,8 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
     // (In arrays of a few thousand: a million triangles take tens of milliseconds.)
     std::vector<aiVector3D> vectors;
     auto sendVectors = [&](const aiVector3D* from, const aiMatrix3x3* linear, const aiMatrix4x4* affine) {
-      for (unsigned v = 0; v < mesh.mNumVertices; v += kChunk) {
-        vectors.assign(from + v, from + std::min(mesh.mNumVertices, v + kChunk));
+      for (std::size_t v = 0; v < mesh.mNumVertices; v += kChunk) {
+        vectors.assign(from + v, from + std::min<std::size_t>(mesh.mNumVertices, v + kChunk));
         if (!identity)
           for (aiVector3D& x : vectors)
             x = linear ? *linear * x : *affine * x;
@@ -286,9 +286,9 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
     if (normals)
       sendVectors(mesh.mNormals, &normalTransform, nullptr);
     std::vector<WireFace> wire;
-    for (unsigned f = 0; f < mesh.mNumFaces; f += kChunk) {
+    for (std::size_t f = 0; f < mesh.mNumFaces; f += kChunk) {
       wire.clear();
-      for (unsigned g = f; g < std::min(mesh.mNumFaces, f + kChunk); ++g) {
+      for (std::size_t g = f; g < std::min<std::size_t>(mesh.mNumFaces, f + kChunk); ++g) {
         const aiFace& face = mesh.mFaces[g];
         WireFace w{face.mNumIndices, {0, 0, 0}};
         for (unsigned c = 0; c < 3 && c < face.mNumIndices && face.mIndices; ++c)
@@ -318,9 +318,15 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
 [[noreturn]] void runReader(int fd, std::span<const char> bytes, MeshFormat format) noexcept
 {
   // The faults must end this process, by their signal: a handler inherited from the parent (a sanitizer's, the
-  // fuzzer's, a chapter's Ctrl-C) would otherwise run here. A write to a parent that stopped reading fails instead.
-  for (const int s : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGTRAP, SIGSYS, SIGINT, SIGTERM, SIGHUP, SIGQUIT})
+  // fuzzer's) would otherwise run here. So must a stop signal the parent catches (a chapter's Ctrl-C); one it ignores
+  // (nohup's SIGHUP) stays ignored. A write to a parent that stopped reading fails instead of killing.
+  for (const int s : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGTRAP, SIGSYS})
     std::signal(s, SIG_DFL);
+  for (const int s : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) {
+    struct sigaction now{};
+    if (::sigaction(s, nullptr, &now) == 0 && now.sa_handler != SIG_IGN)
+      std::signal(s, SIG_DFL);
+  }
   std::signal(SIGPIPE, SIG_IGN);
 #ifdef __linux__
   // Ends with the parent (killed, say), rather than reading on for nobody.
