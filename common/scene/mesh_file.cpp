@@ -247,14 +247,13 @@ void sendError(PipeWriter& out, ErrorKind kind, const std::string& text)
 }
 
 // The child's walk over an Assimp scene: every mesh a node holds, with the transforms of the nodes above it (identity
-// for OBJ and PLY, but applied where they are not), sent as a Mesh record. Returns the number of meshes sent, or -1 after
+// for OBJ and PLY, but applied all the same), sent as a Mesh record. Returns the number of meshes sent, or -1 after
 // sending an Error. It checks only what it must not dereference.
 long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent, PipeWriter& out)
 {
   const aiMatrix4x4 transform = parent * node.mTransformation;
   aiMatrix3x3 normalTransform(transform);
   normalTransform.Inverse().Transpose();
-  const bool identity = transform.IsIdentity();
   constexpr std::size_t kChunk = 4096;
   long sent = 0;
   for (unsigned k = 0; k < node.mNumMeshes; ++k) {
@@ -276,9 +275,9 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
     auto sendVectors = [&](const aiVector3D* from, const aiMatrix3x3* linear, const aiMatrix4x4* affine) {
       for (std::size_t v = 0; v < mesh.mNumVertices; v += kChunk) {
         vectors.assign(from + v, from + std::min<std::size_t>(mesh.mNumVertices, v + kChunk));
-        if (!identity)
-          for (aiVector3D& x : vectors)
-            x = linear ? *linear * x : *affine * x;
+        // (Even by the identity, as raylife always did: it makes -0 +0, and the meshes stay bit for bit the same.)
+        for (aiVector3D& x : vectors)
+          x = linear ? *linear * x : *affine * x;
         out.put(vectors.data(), vectors.size() * sizeof(aiVector3D));
       }
     };
