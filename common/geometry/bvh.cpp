@@ -539,9 +539,12 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   std::vector<int> order(count);
   {
     Builder builder(std::move(items), int(spheres.size()), options);
-    // No reserve: a tree has about one node per primitive, but a guess high enough for every scene (two per
-    // primitive) would be 64 MB for a million triangles; growing by doubling never holds more than twice the
-    // final array. (Not shrunk to fit either: the copy would be the peak.)
+    // Room for the most nodes a tree of `count` primitives can have (2·count − 1, leaves of one), reserved at once:
+    // the pages never written are never resident, so this holds what the tree uses, where growing by doubling held
+    // the old array and the new one, twice as large and written by the copy, at once (a million triangles make 1.3
+    // million nodes: the doubling from 2^20 to 2^21 of them was the build's memory peak). (Not shrunk to fit: the
+    // copy would be the peak.)
+    builder.nodes.reserve(std::max<std::size_t>(2 * count, 2) - 1);
     builder.build(0, count, 1);
     nodes_ = std::move(builder.nodes);
     depth_ = builder.depth;

@@ -1,4 +1,5 @@
-// Mesh files through Assimp, then raylife's own checks (see mesh_file.h for why both).
+// Mesh files through Assimp, in a child process, then raylife's own checks (see mesh_file.h for why both, and
+// below for why the child).
 #include "scene/mesh_file.h"
 
 #include <assimp/Importer.hpp>
@@ -9,13 +10,22 @@
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#ifdef __linux__
+#include <sys/prctl.h>
+#endif
 
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <vector>
 #include <unordered_map>
 #include <string_view>
@@ -41,59 +51,6 @@ std::string libraryMessage(const char* text)
   return out.empty() ? "the library gave no reason" : out;
 }
 
-// The meshes of an Assimp scene, with the transforms of the nodes that hold them (identity for OBJ and PLY, but
-// applied all the same), appended to `data`.
-void collect(const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent, const std::string& name,
-             MeshData& data)
-{
-  const aiMatrix4x4 transform = parent * node.mTransformation;
-  aiMatrix3x3 normalTransform(transform);
-  normalTransform.Inverse().Transpose();
-  for (unsigned k = 0; k < node.mNumMeshes; ++k) {
-    if (node.mMeshes[k] >= scene.mNumMeshes)
-      throw MeshError(name + ": malformed: a node names mesh " + std::to_string(node.mMeshes[k]) + " of " +
-                      std::to_string(scene.mNumMeshes));
-    const aiMesh& mesh = *scene.mMeshes[node.mMeshes[k]];
-    if (mesh.mPrimitiveTypes & (aiPrimitiveType_POINT | aiPrimitiveType_LINE))
-      throw MeshError(name + ": unsupported polygon: the file has points or lines (faces of 1 or 2 vertices); " +
-                      "raylife renders triangles only");
-    const std::size_t first = data.positions.size();
-    const bool normals = mesh.mNormals != nullptr;
-    for (unsigned v = 0; v < mesh.mNumVertices; ++v) {
-      const aiVector3D p = transform * mesh.mVertices[v];
-      const Vec3 position(p.x, p.y, p.z);
-      if (!isFinite(position))
-        throw MeshError(name + ": vertex " + std::to_string(first + v + 1) + " is not finite (NaN or infinite)");
-      data.positions.push_back(position);
-      if (normals) {
-        const aiVector3D n = normalTransform * mesh.mNormals[v];
-        data.normals.emplace_back(n.x, n.y, n.z);
-      }
-    }
-    for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
-      const aiFace& face = mesh.mFaces[f];
-      if (face.mNumIndices != 3)
-        throw MeshError(name + ": unsupported polygon: face " + std::to_string(f + 1) + " has " +
-                        std::to_string(face.mNumIndices) + " vertices after triangulation");
-      std::array<std::uint32_t, 3> tri{};
-      for (int c = 0; c < 3; ++c) {
-        const unsigned index = face.mIndices[c];
-        // Checked here whatever the library checked: an index out of range must never reach the renderer.
-        if (index >= mesh.mNumVertices)
-          throw MeshError(name + ": bad index: face " + std::to_string(f + 1) + " names vertex " +
-                          std::to_string(index + 1) + " of " + std::to_string(mesh.mNumVertices));
-        tri[std::size_t(c)] = std::uint32_t(first + index);
-      }
-      data.triangles.push_back(tri);
-    }
-  }
-  for (unsigned c = 0; c < node.mNumChildren; ++c)
-    collect(scene, *node.mChildren[c], transform, name, data);
-}
-
-// [weld]
-// Joins the vertices of `data` that have equal positions and normals (all finite), and renumbers the triangles: the
-// vertices sorted by (position, normal), each run of equal ones becoming one. O(n log n) time, 8 bytes a vertex.
 // Checks a PLY file's header before Assimp reads it: Debian's Assimp 5.2 reads past the end of a binary PLY whose
 // header is cut short (found by fuzzing). The header must start with "ply", hold no control character, declare known
 // formats, counts and property types, and end with "end_header"; a binary file must hold at least the bytes its
@@ -180,6 +137,9 @@ void checkPlyHeader(std::span<const char> bytes, const std::string& name)
     fail("the file ends before the data its header announces");
 }
 
+// [weld]
+// Joins the vertices of `data` that have equal positions and normals (all finite), and renumbers the triangles: the
+// vertices sorted by (position, normal), each run of equal ones becoming one. O(n log n) time, 8 bytes a vertex.
 void weld(MeshData& data)
 {
   const std::size_t n = data.positions.size();
@@ -211,6 +171,464 @@ void weld(MeshData& data)
 }
 // [weld]
 
+
+// ---- Assimp in a process of its own ---------------------------------------------------------------------------
+// Why: Debian's Assimp 5.2 faults on hostile files, in ways raylife cannot catch in its own process. Fuzzing found an
+// assertion that aborts in its triangulation, a read past the end of a binary PLY whose header is cut short, a write
+// through a bad pointer on an OBJ with control characters, and leaks. The checks before Assimp (checkPlyHeader, the
+// OBJ's control characters) give those files a better message, but only a separate process makes "nothing crashes
+// on any input" hold for the faults nobody has found yet: a fork()ed child runs Assimp and writes the arrays it got
+// to a pipe, then _exit()s; the parent reads them, every count bounded, and makes a child that died, or an answer cut
+// short or garbled, the usual one-line message. Every check on the data itself (indices, finite vertices, nothing but
+// triangles) is made in the parent, on what it received: the child's only job is to run the library.
+//
+// The stream, in this machine's byte order (both ends are one program on one machine), is records, each a Tag and
+// its fields: a Mesh (WireMesh, then its positions as float x, y, z, its normals likewise if it has them, and its
+// faces as WireFace), an Error (kind, length, the text), and an End (the number of meshes sent), which is last.
+enum Tag : std::uint32_t { kMeshTag = 0x4d455348u, kErrorTag = 0x4552524fu, kEndTag = 0x454e4421u };
+struct WireMesh {
+  std::uint32_t primitiveTypes, vertices, hasNormals, faces;
+};
+struct WireFace {
+  std::uint32_t count;    // the face's number of corners
+  std::uint32_t index[3]; // its first three (0 where it has fewer)
+};
+// An Error record's kind: the library refused the file (its message follows), or its scene is malformed.
+enum ErrorKind : std::uint32_t { kLibraryError = 0, kMalformed = 1 };
+constexpr std::size_t kMaxErrorBytes = 1024;
+// The child's exit statuses, besides 0.
+constexpr int kExitNoMemory = 3, kExitFailed = 4, kExitPipe = 5;
+
+// The child's buffered writing to the pipe; a write that fails (the parent stopped reading) ends the child.
+class PipeWriter {
+public:
+  explicit PipeWriter(int fd) : fd_(fd) { buffer_.reserve(kBufferBytes); }
+  template <class T> void put(const T& value) { put(&value, sizeof value); }
+  void put(const void* data, std::size_t size)
+  {
+    if (buffer_.size() + size > kBufferBytes)
+      flush();
+    if (size > kBufferBytes)
+      send(static_cast<const char*>(data), size);
+    else
+      buffer_.insert(buffer_.end(), static_cast<const char*>(data), static_cast<const char*>(data) + size);
+  }
+  void flush()
+  {
+    send(buffer_.data(), buffer_.size());
+    buffer_.clear();
+  }
+
+private:
+  static constexpr std::size_t kBufferBytes = std::size_t(1) << 20;
+  void send(const char* data, std::size_t size) const
+  {
+    while (size > 0) {
+      const ssize_t n = ::write(fd_, data, size);
+      if (n < 0 && errno == EINTR)
+        continue;
+      if (n <= 0)
+        _exit(kExitPipe);
+      data += n;
+      size -= std::size_t(n);
+    }
+  }
+  int fd_;
+  std::vector<char> buffer_;
+};
+
+void sendError(PipeWriter& out, ErrorKind kind, const std::string& text)
+{
+  const std::string cut = text.substr(0, kMaxErrorBytes);
+  out.put(kErrorTag);
+  out.put(std::uint32_t(kind));
+  out.put(std::uint32_t(cut.size()));
+  out.put(cut.data(), cut.size());
+}
+
+// The child's walk over an Assimp scene: every mesh a node holds, with the transforms of the nodes above it (identity
+// for OBJ and PLY, but applied all the same), sent as a Mesh record. Returns the number of meshes sent, or -1 after
+// sending an Error. It checks only what it must not dereference.
+long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& parent, PipeWriter& out)
+{
+  const aiMatrix4x4 transform = parent * node.mTransformation;
+  aiMatrix3x3 normalTransform(transform);
+  normalTransform.Inverse().Transpose();
+  constexpr std::size_t kChunk = 4096;
+  long sent = 0;
+  for (unsigned k = 0; k < node.mNumMeshes; ++k) {
+    if (node.mMeshes[k] >= scene.mNumMeshes || !scene.mMeshes[node.mMeshes[k]]) {
+      sendError(out, kMalformed, "a node names mesh " + std::to_string(node.mMeshes[k]) + " of " +
+                                     std::to_string(scene.mNumMeshes));
+      return -1;
+    }
+    const aiMesh& mesh = *scene.mMeshes[node.mMeshes[k]];
+    if ((mesh.mNumVertices > 0 && !mesh.mVertices) || (mesh.mNumFaces > 0 && !mesh.mFaces)) {
+      sendError(out, kMalformed, "a mesh without its vertices or faces");
+      return -1;
+    }
+    const bool normals = mesh.mNormals != nullptr;
+    out.put(kMeshTag);
+    out.put(WireMesh{mesh.mPrimitiveTypes, mesh.mNumVertices, normals ? 1u : 0u, mesh.mNumFaces});
+    // (In arrays of a few thousand: a million triangles take tens of milliseconds.)
+    std::vector<aiVector3D> vectors;
+    auto sendVectors = [&](const aiVector3D* from, const aiMatrix3x3* linear, const aiMatrix4x4* affine) {
+      for (std::size_t v = 0; v < mesh.mNumVertices; v += kChunk) {
+        vectors.assign(from + v, from + std::min<std::size_t>(mesh.mNumVertices, v + kChunk));
+        // (Even by the identity, as raylife always did: it makes -0 +0, and the meshes stay bit for bit the same.)
+        for (aiVector3D& x : vectors)
+          x = linear ? *linear * x : *affine * x;
+        out.put(vectors.data(), vectors.size() * sizeof(aiVector3D));
+      }
+    };
+    sendVectors(mesh.mVertices, nullptr, &transform);
+    if (normals)
+      sendVectors(mesh.mNormals, &normalTransform, nullptr);
+    std::vector<WireFace> wire;
+    for (std::size_t f = 0; f < mesh.mNumFaces; f += kChunk) {
+      wire.clear();
+      for (std::size_t g = f; g < std::min<std::size_t>(mesh.mNumFaces, f + kChunk); ++g) {
+        const aiFace& face = mesh.mFaces[g];
+        WireFace w{face.mNumIndices, {0, 0, 0}};
+        for (unsigned c = 0; c < 3 && c < face.mNumIndices && face.mIndices; ++c)
+          w.index[c] = face.mIndices[c];
+        wire.push_back(w);
+      }
+      out.put(wire.data(), wire.size() * sizeof(WireFace));
+    }
+    ++sent;
+  }
+  for (unsigned c = 0; c < node.mNumChildren; ++c) {
+    if (!node.mChildren[c]) {
+      sendError(out, kMalformed, "a node without its child");
+      return -1;
+    }
+    const long more = sendNode(scene, *node.mChildren[c], transform, out);
+    if (more < 0)
+      return -1;
+    sent += more;
+  }
+  return sent;
+}
+
+// The child: Assimp on the bytes, the stream to `fd`, and _exit (no destructor, no atexit handler: nothing of the
+// parent's is flushed or freed twice, LeakSanitizer's check at exit does not run, and the library's scene is not
+// freed, which takes long on a big model and gains nothing).
+[[noreturn]] void runReader(int fd, std::span<const char> bytes, MeshFormat format) noexcept
+{
+  // The faults must end this process, by their signal: a handler inherited from the parent (a sanitizer's, the
+  // fuzzer's) would otherwise run here. So must a stop signal the parent catches (a chapter's Ctrl-C); one it ignores
+  // (nohup's SIGHUP) stays ignored. A write to a parent that stopped reading fails instead of killing.
+  for (const int s : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGTRAP, SIGSYS})
+    std::signal(s, SIG_DFL);
+  for (const int s : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) {
+    struct sigaction now{};
+    if (::sigaction(s, nullptr, &now) == 0 && now.sa_handler != SIG_IGN)
+      std::signal(s, SIG_DFL);
+  }
+  std::signal(SIGPIPE, SIG_IGN);
+#ifdef __linux__
+  // Ends with the parent (killed, say), rather than reading on for nobody.
+  const pid_t parent = ::getppid();
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  if (::getppid() != parent)
+    _exit(kExitPipe);
+#endif
+  // Quiet: what the library or the C library says as it fails (an assertion's text) is not the one-line message.
+  const int devNull = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+  if (devNull >= 0) {
+    ::dup2(devNull, STDOUT_FILENO);
+    ::dup2(devNull, STDERR_FILENO);
+  }
+  try {
+    PipeWriter out(fd);
+    // Never deleted (see above).
+    auto* importer = new Assimp::Importer;
+    // Keep positions and normals only (less to hold; materials and textures are the scene's business).
+    importer->SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
+                                 aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS | aiComponent_TEXCOORDS |
+                                     aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS | aiComponent_TEXTURES |
+                                     aiComponent_LIGHTS | aiComponent_CAMERAS | aiComponent_MATERIALS);
+    // (Not Assimp's JoinIdenticalVertices: on a million-triangle PLY it took 15 s and 300 MB more than the reading
+    // itself, 2 s and 83 MB. OBJ files are welded by the parent instead.)
+    const unsigned flags = aiProcess_ValidateDataStructure | aiProcess_RemoveComponent | aiProcess_Triangulate;
+    // From memory, with the format named: Assimp then uses that one importer and opens no other file.
+    const aiScene* scene =
+        importer->ReadFileFromMemory(bytes.data(), bytes.size(), flags, format == MeshFormat::Obj ? "obj" : "ply");
+    long meshes = 0;
+    if (!scene) {
+      const char* message = importer->GetErrorString();
+      sendError(out, kLibraryError, message ? message : "");
+    } else if (scene->mRootNode) {
+      meshes = sendNode(*scene, *scene->mRootNode, aiMatrix4x4(), out);
+    }
+    if (meshes >= 0) {
+      out.put(kEndTag);
+      out.put(std::uint32_t(meshes));
+    }
+    out.flush();
+  } catch (const std::bad_alloc&) {
+    _exit(kExitNoMemory);
+  } catch (...) {
+    _exit(kExitFailed);
+  }
+  _exit(0);
+}
+
+// The parent's reading of the stream: whole values, EINTR retried; the end of the stream is reported, not thrown.
+class PipeReader {
+public:
+  explicit PipeReader(int fd) : fd_(fd) {}
+  // Fills `data` with `size` bytes; false if the stream ends first.
+  bool get(void* data, std::size_t size)
+  {
+    auto* at = static_cast<char*>(data);
+    while (size > 0) {
+      const ssize_t n = ::read(fd_, at, size);
+      if (n < 0 && errno == EINTR)
+        continue;
+      if (n <= 0)
+        return false;
+      at += n;
+      size -= std::size_t(n);
+    }
+    return true;
+  }
+
+private:
+  int fd_;
+};
+
+// What ended the parent's reading before the End record: the stream ended (the child died, or closed it), or it
+// was not what the child writes.
+struct StreamFault {
+  bool garbled;
+  std::string what;
+};
+
+// The child, for the parent: its pipe's reading end, and its process, killed and reaped on the way out unless
+// wait() reaped it (an exception from the checks leaves no process behind, and no zombie).
+class ReaderProcess {
+public:
+  ReaderProcess(pid_t pid, int fd) : pid_(pid), fd_(fd) {}
+  ReaderProcess(const ReaderProcess&) = delete;
+  ReaderProcess& operator=(const ReaderProcess&) = delete;
+  ~ReaderProcess()
+  {
+    if (pid_ > 0)
+      ::kill(pid_, SIGKILL);
+    wait();
+  }
+  int fd() const { return fd_; }
+  void kill() const
+  {
+    if (pid_ > 0)
+      ::kill(pid_, SIGKILL);
+  }
+  // Closes the pipe and waits for the child's end: its wait status, or nothing if it cannot be known (SIGCHLD
+  // ignored by the program, which has the system reap children at once).
+  std::optional<int> wait()
+  {
+    if (fd_ >= 0) {
+      ::close(fd_);
+      fd_ = -1;
+    }
+    if (pid_ <= 0)
+      return std::nullopt;
+    int status = 0;
+    pid_t done;
+    while ((done = ::waitpid(pid_, &status, 0)) < 0 && errno == EINTR) {
+    }
+    pid_ = -1;
+    return done > 0 ? std::optional<int>(status) : std::nullopt;
+  }
+
+private:
+  pid_t pid_;
+  int fd_;
+};
+
+std::string signalName(int signal)
+{
+  switch (signal) {
+  case SIGSEGV: return "SIGSEGV";
+  case SIGABRT: return "SIGABRT";
+  case SIGBUS: return "SIGBUS";
+  case SIGFPE: return "SIGFPE";
+  case SIGILL: return "SIGILL";
+  case SIGTRAP: return "SIGTRAP";
+  case SIGSYS: return "SIGSYS";
+  case SIGKILL: return "SIGKILL";
+  case SIGINT: return "SIGINT";
+  case SIGTERM: return "SIGTERM";
+  case SIGHUP: return "SIGHUP";
+  case SIGQUIT: return "SIGQUIT";
+  case SIGXCPU: return "SIGXCPU";
+  default: return "signal " + std::to_string(signal);
+  }
+}
+
+// What a child that ended so, without a whole answer, means for the user.
+std::string describeEnd(std::optional<int> status, const StreamFault& fault)
+{
+  if (status && WIFSIGNALED(*status)) {
+    const int s = WTERMSIG(*status);
+    if (s == SIGINT || s == SIGTERM || s == SIGHUP || s == SIGQUIT)
+      return "the mesh reader was stopped (" + signalName(s) + ") before it finished";
+    if (s == SIGKILL)
+      return "the mesh reader was killed (SIGKILL) before it finished: out of memory?";
+    return "the mesh reader crashed (" + signalName(s) + ") on this file: it is malformed";
+  }
+  if (status && WIFEXITED(*status) && WEXITSTATUS(*status) == kExitNoMemory)
+    return "the mesh reader ran out of memory on this file";
+  if (status && WIFEXITED(*status) && WEXITSTATUS(*status) != 0)
+    return "the mesh reader failed (exit status " + std::to_string(WEXITSTATUS(*status)) + ") on this file";
+  return "the mesh reader's answer was " + fault.what;
+}
+
+// Reads `count` elements of T from the stream into `out`, chunk by chunk (a count is not trusted with an allocation:
+// memory grows with what arrives), calling `take(element, index)` for each.
+template <class T, class Take> void receiveArray(PipeReader& in, std::uint64_t count, std::vector<T>& scratch,
+                                                 const Take& take)
+{
+  constexpr std::uint64_t kChunk = std::uint64_t(1) << 16;
+  for (std::uint64_t done = 0; done < count;) {
+    const std::size_t n = std::size_t(std::min(kChunk, count - done));
+    scratch.resize(n);
+    if (!in.get(scratch.data(), n * sizeof(T)))
+      throw StreamFault{false, "cut short"};
+    for (std::size_t i = 0; i < n; ++i)
+      take(scratch[i], done + i);
+    done += n;
+  }
+}
+
+// The parent: reads the child's stream into `data`, checking every array as it comes. Limits: a file of `fileBytes`
+// bytes cannot make more vertices or faces than a few per byte (a corner takes at least a byte or two in either
+// format); more is a garbled stream, and so is any record the child does not write. @throws MeshError for a fault
+// of the file, StreamFault for one of the stream.
+void receive(PipeReader& in, MeshData& data, std::size_t fileBytes, const std::string& name,
+             const std::string& formatName)
+{
+  const std::uint64_t limit = std::min<std::uint64_t>(8 * std::uint64_t(fileBytes) + 4096, UINT32_MAX);
+  auto garbled = [](const std::string& what) { return StreamFault{true, "garbled: " + what}; };
+  std::uint64_t meshes = 0, faces = 0;
+  std::vector<aiVector3D> vectors;
+  std::vector<WireFace> wireFaces;
+  for (;;) {
+    std::uint32_t tag = 0;
+    if (!in.get(&tag, sizeof tag))
+      throw StreamFault{false, "cut short"};
+    if (tag == kEndTag) {
+      std::uint32_t sent = 0;
+      if (!in.get(&sent, sizeof sent))
+        throw StreamFault{false, "cut short"};
+      if (sent != meshes)
+        throw garbled("it ends after " + std::to_string(sent) + " meshes, of " + std::to_string(meshes) + " sent");
+      return;
+    }
+    if (tag == kErrorTag) {
+      std::uint32_t fields[2] = {};
+      if (!in.get(fields, sizeof fields))
+        throw StreamFault{false, "cut short"};
+      if (fields[0] > kMalformed || fields[1] > kMaxErrorBytes)
+        throw garbled("an error record out of range");
+      std::string text(fields[1], '\0');
+      if (!in.get(text.data(), text.size()))
+        throw StreamFault{false, "cut short"};
+      if (fields[0] == kMalformed)
+        throw MeshError(name + ": malformed: " + libraryMessage(text.c_str()));
+      throw MeshError(name + ": cannot read it as " + formatName + ": " + libraryMessage(text.c_str()));
+    }
+    if (tag != kMeshTag)
+      throw garbled("an unknown record");
+    WireMesh mesh{};
+    if (!in.get(&mesh, sizeof mesh))
+      throw StreamFault{false, "cut short"};
+    ++meshes;
+    if (mesh.hasNormals > 1 || data.positions.size() + std::uint64_t(mesh.vertices) > limit ||
+        faces + mesh.faces > limit || meshes > limit)
+      throw garbled("a mesh larger than the file can hold");
+    faces += mesh.faces;
+    if (mesh.primitiveTypes & (aiPrimitiveType_POINT | aiPrimitiveType_LINE))
+      throw MeshError(name + ": unsupported polygon: the file has points or lines (faces of 1 or 2 vertices); " +
+                      "raylife renders triangles only");
+    const std::size_t first = data.positions.size();
+    data.positions.reserve(first + std::min<std::size_t>(mesh.vertices, std::size_t(1) << 20));
+    receiveArray(in, mesh.vertices, vectors, [&](const aiVector3D& p, std::uint64_t v) {
+      const Vec3 position(p.x, p.y, p.z);
+      if (!isFinite(position))
+        throw MeshError(name + ": vertex " + std::to_string(first + v + 1) + " is not finite (NaN or infinite)");
+      data.positions.push_back(position);
+    });
+    // (A file whose parts do not all have normals has none: see the caller.)
+    if (mesh.hasNormals) {
+      data.normals.reserve(data.positions.size());
+      receiveArray(in, mesh.vertices, vectors, [&](const aiVector3D& n, std::uint64_t) {
+        data.normals.emplace_back(n.x, n.y, n.z);
+      });
+    }
+    data.triangles.reserve(data.triangles.size() + std::min<std::size_t>(mesh.faces, std::size_t(1) << 20));
+    receiveArray(in, mesh.faces, wireFaces, [&](const WireFace& face, std::uint64_t f) {
+      if (face.count != 3)
+        throw MeshError(name + ": unsupported polygon: face " + std::to_string(f + 1) + " has " +
+                        std::to_string(face.count) + " vertices after triangulation");
+      std::array<std::uint32_t, 3> tri{};
+      for (int c = 0; c < 3; ++c) {
+        const std::uint32_t index = face.index[c];
+        // Checked here whatever the library checked: an index out of range must never reach the renderer.
+        if (index >= mesh.vertices)
+          throw MeshError(name + ": bad index: face " + std::to_string(f + 1) + " names vertex " +
+                          std::to_string(std::uint64_t(index) + 1) + " of " + std::to_string(mesh.vertices));
+        tri[std::size_t(c)] = std::uint32_t(first + index);
+      }
+      data.triangles.push_back(tri);
+    });
+  }
+}
+
+// Assimp on `bytes`, in a child process (see above), and its answer checked. @throws MeshError.
+MeshData readInChild(std::span<const char> bytes, MeshFormat format, const std::string& name)
+{
+  const std::string formatName = format == MeshFormat::Obj ? "OBJ" : "PLY";
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0)
+    throw MeshError(name + ": cannot start the mesh reader: " + std::strerror(errno));
+#ifdef F_SETPIPE_SZ
+  ::fcntl(fds[1], F_SETPIPE_SZ, 1 << 20); // fewer, larger transfers for a big model (best effort)
+#endif
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    const int error = errno;
+    ::close(fds[0]);
+    ::close(fds[1]);
+    throw MeshError(name + ": cannot start the mesh reader: " + std::strerror(error));
+  }
+  if (pid == 0) {
+    ::close(fds[0]);
+    runReader(fds[1], bytes, format);
+  }
+  ::close(fds[1]);
+  ReaderProcess child(pid, fds[0]);
+  PipeReader in(child.fd());
+  MeshData data;
+  try {
+    receive(in, data, bytes.size(), name, formatName);
+  } catch (const StreamFault& fault) {
+    if (fault.garbled)
+      child.kill(); // it may be writing on: its status is ours, not the file's
+    const std::optional<int> status = child.wait();
+    throw MeshError(name + ": " + (fault.garbled ? "the mesh reader's answer was " + fault.what
+                                                 : describeEnd(status, fault)));
+  }
+  const std::optional<int> status = child.wait();
+  // A whole answer from a child that then failed is refused too: a library that crashed after writing its answer
+  // may have written through a bad pointer before.
+  if (status && !(WIFEXITED(*status) && WEXITSTATUS(*status) == 0))
+    throw MeshError(name + ": " + describeEnd(status, StreamFault{false, "whole"}));
+  return data;
+}
+
 } // namespace
 
 MeshFormat meshFormatOf(const std::string& path)
@@ -239,27 +657,7 @@ MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std
         throw MeshError(name + ": cannot read it as OBJ: a control character (byte " + std::to_string(int(c)) +
                         ") at byte " + std::to_string(i) + ": OBJ is text");
     }
-  Assimp::Importer importer;
-  // Keep positions and normals only (less to hold; materials and textures are the scene's business).
-  importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS, aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
-                                                          aiComponent_TEXCOORDS | aiComponent_BONEWEIGHTS |
-                                                          aiComponent_ANIMATIONS | aiComponent_TEXTURES |
-                                                          aiComponent_LIGHTS | aiComponent_CAMERAS |
-                                                          aiComponent_MATERIALS);
-  // (Not Assimp's JoinIdenticalVertices: on a million-triangle PLY it took 15 s and 300 MB more than the reading
-  // itself, 2 s and 83 MB. OBJ files are welded below instead.)
-  const unsigned flags = aiProcess_ValidateDataStructure | aiProcess_RemoveComponent | aiProcess_Triangulate;
-  // From memory, with the format named: Assimp then uses that one importer and opens no other file.
-  const aiScene* scene =
-      importer.ReadFileFromMemory(bytes.data(), bytes.size(), flags, format == MeshFormat::Obj ? "obj" : "ply");
-  if (!scene)
-    throw MeshError(name + ": cannot read it as " + (format == MeshFormat::Obj ? "OBJ" : "PLY") + ": " +
-                    libraryMessage(importer.GetErrorString()));
-  if (!scene->mRootNode)
-    throw MeshError(name + ": no triangles in the file");
-  MeshData data;
-  collect(*scene, *scene->mRootNode, aiMatrix4x4(), name, data);
-  importer.FreeScene(); // the library's copy, before the welding's scratch
+  MeshData data = readInChild(bytes, format, name);
   if (data.normals.size() != data.positions.size() ||
       !std::all_of(data.normals.begin(), data.normals.end(), [](const Vec3& n) { return isFinite(n); }))
     data.normals.clear(); // some parts had normals and some did not, or bad ones: none (smooth shading computes them)

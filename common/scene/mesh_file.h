@@ -6,7 +6,9 @@
 /// PLY's binary layouts and property lists), and a hand-written parser is where hostile files find their way in.
 /// Why raylife checks anyway: a library's own checks vary by version (Debian 12's tinyobjloader, for one, does not
 /// range-check negative OBJ indices), and a renderer that indexes out of range on a bad file crashes or draws
-/// garbage. The meshes here are in the file's own coordinates; the scene loader transforms them.
+/// garbage. Why in a child process: the library itself faults on some hostile files (Debian's Assimp 5.2 aborts, or
+/// reads and writes out of bounds: found by fuzzing), which no check in this process could catch; the child's crash
+/// becomes a MeshError. The meshes here are in the file's own coordinates; the scene loader transforms them.
 #pragma once
 
 #include "core/math.h"
@@ -50,9 +52,12 @@ MeshFormat meshFormatOf(const std::string& path);
 
 /// Reads and checks a mesh file (a regular file of at most kMaxMeshFileBytes). An OBJ file's vertices that share a
 /// position (and a normal, when the file gives normals) are joined, since OBJ faces list their own corners, so that
-/// the mesh is connected; a PLY file's indexing is kept as it is. @throws MeshError naming the file and the fault:
-/// unreadable, empty, not OBJ or PLY, malformed (the library's message), an index out of range, a vertex that is
-/// not finite, points or lines (raylife renders triangles), or no triangle at all.
+/// the mesh is connected; a PLY file's indexing is kept as it is. The library runs in a child process (fork(); the
+/// arrays come back through a pipe), so this is safe on any file, but not to call while other threads of the program
+/// hold locks the child would need (call it before starting threads, as the scene loader does). @throws MeshError
+/// naming the file and the fault: unreadable, empty, not OBJ or PLY, malformed (the library's message), an index out
+/// of range, a vertex that is not finite, points or lines (raylife renders triangles), no triangle at all, or a
+/// reader that crashed on it or could not be started.
 MeshData readMeshFile(const std::string& path);
 
 /// readMeshFile on bytes already in memory, `name` used in messages only (the fuzz target's entry). Never reads

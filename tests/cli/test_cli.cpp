@@ -280,6 +280,24 @@ TEST_CASE("a scene path that is no readable scene file is reported")
   CHECK(entries(dir.path()) == std::vector<std::string>{"folder.json"});
 }
 
+TEST_CASE("a mesh file that crashes the mesh library ends the chapter with one message and status 1 (issue 20)")
+{
+  // Debian's Assimp 5.2 aborts on this PLY (a face of no corners; tests/fuzz/mesh_regressions, whose first byte
+  // names the format for the fuzzer). Read in a child process, it is the child that dies, and the chapter says so.
+  const TempDir dir;
+  const std::string regression = readFile(std::string(RAYLIFE_MESH_REGRESSIONS) + "/ply_face_without_corners");
+  REQUIRE(regression.size() > 1);
+  writeFile(dir.path() / "crash.ply", regression.substr(1));
+  writeFile(dir.path() / "scene.json",
+            withFault(R"("lights": [)", R"("meshes": [ { "file": "crash.ply", "material": "red" } ], "lights": [)"));
+  const Outcome o = run(kStep04, {"scene.json", "-o", "out.png", "--quiet"}, dir.path());
+  CHECK(o.signal == 0);
+  CHECK(o.status == 1);
+  CHECK(o.err == "step04_shadows: scene.json:13:25: /meshes/0/file: crash.ply: the mesh reader crashed (SIGABRT) on "
+                 "this file: it is malformed\n");
+  CHECK(entries(dir.path()) == std::vector<std::string>{"crash.ply", "scene.json"});
+}
+
 TEST_CASE("command-line faults exit with status 2 and write nothing")
 {
   SECTION("an unknown flag") { expectUsageError({"--frobnicate"}, "unknown option '--frobnicate'; see --help"); }

@@ -1,6 +1,7 @@
 // libFuzzer target for the mesh files (build with tools/fuzz.sh): the first byte chooses the format (even: OBJ,
 // odd: PLY), the rest is the file. Every input must load into a mesh that keeps the reader's promises or be refused
-// with one MeshError line; anything else is a bug, and the input becomes a file in mesh_regressions/.
+// with one MeshError line; anything else is a bug, and the input becomes a file in mesh_regressions/. Assimp runs in
+// the loader's child process: a fault of the library must come back as that line (its coverage is not seen here).
 #include "scene_check.h"
 
 #include <cstdint>

@@ -6,10 +6,13 @@
 
 #include <catch2/catch.hpp>
 
+#include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
+
+#include <sys/wait.h>
 
 using namespace raylife;
 namespace fs = std::filesystem;
@@ -253,6 +256,49 @@ TEST_CASE("bad mesh entries and bad mesh files are refused with one message nami
     CHECK(message.find(c.expected) != std::string::npos);           // and the fault
     CHECK(message.find('\n') == std::string::npos);                 // on one line
   }
+}
+
+TEST_CASE("a mesh file that crashes the library is one message, and the reader leaves no process behind")
+{
+  // Debian's Assimp 5.2 aborts (an assertion in its triangulation) on a PLY face of no corners: raylife reads mesh
+  // files in a child process, so the crash is the child's, and the parent says so (tests/fuzz/mesh_regressions).
+  const fs::path dir = folder("crash");
+  write(dir / "crash.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                           "property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n"
+                           "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n0\n");
+  const std::string crash = (dir / "crash.ply").string();
+  try {
+    readMeshFile(crash);
+    FAIL("the file was read");
+  } catch (const MeshError& e) {
+    CHECK(std::string(e.what()) == crash + ": the mesh reader crashed (SIGABRT) on this file: it is malformed");
+  }
+  CHECK(failure(sceneWith(R"({ "file": "crash.ply", "material": "white" })"), (dir / "scene.json").string())
+            .find("/meshes/0/file: " + crash + ": the mesh reader crashed (SIGABRT)") != std::string::npos);
+
+  // The parent stops reading at the first fault while the child still has megabytes to write (a NaN first, then
+  // 300,000 vertices): the child is ended, and the parent is not (no SIGPIPE reaches it).
+  std::string big = "ply\nformat ascii 1.0\nelement vertex 300000\nproperty float x\nproperty float y\n"
+                    "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\nnan 0 0\n";
+  for (int v = 1; v < 300000; ++v)
+    big += std::to_string(v) + " 1 2\n";
+  big += "3 0 1 2\n";
+  write(dir / "big.ply", big);
+  try {
+    readMeshFile((dir / "big.ply").string());
+    FAIL("a NaN vertex was read");
+  } catch (const MeshError& e) {
+    CHECK(std::string(e.what()).find("vertex 1 is not finite") != std::string::npos);
+  }
+  // No child is left, running or a zombie: each reader was waited for.
+  errno = 0;
+  CHECK(::waitpid(-1, nullptr, WNOHANG) == -1);
+  CHECK(errno == ECHILD);
+  // And the reader still works.
+  write(dir / "tri.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                         "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                         "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  CHECK(readMeshFile((dir / "tri.ply").string()).triangles.size() == 1);
 }
 
 TEST_CASE("degenerate triangles are dropped with a count in a warning, and the rest of the mesh loads")

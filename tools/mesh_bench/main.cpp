@@ -28,6 +28,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <functional>
 #include <limits>
 #include <string>
@@ -40,6 +41,15 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 double seconds(Clock::time_point since) { return std::chrono::duration<double>(Clock::now() - since).count(); }
+
+// CPU time of this process so far (all its threads), in seconds: on a busy machine the wall clock also counts the
+// time other programs took.
+double cpuSeconds()
+{
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
 
 // Peak resident memory of this process so far, in MB.
 double peakMegabytes()
@@ -127,6 +137,7 @@ int main(int argc, char** argv)
   }
   const double baseline = peakMegabytes();
   MeshData mesh;
+  const auto loadStart = Clock::now();
   try {
     mesh = readMeshFile(o.mesh);
   } catch (const MeshError& e) {
@@ -137,17 +148,21 @@ int main(int argc, char** argv)
   triangles.reserve(mesh.triangles.size());
   for (const auto& t : mesh.triangles)
     triangles.push_back(Triangle{t, 0, 0});
-  std::printf("mesh: %s, %zu triangles, %zu vertices (peak memory while loading: %.0f MB, of which %.0f before; "
-              "held after: %.0f MB)\n",
-              o.mesh.c_str(), triangles.size(), mesh.positions.size(), peakMegabytes(), baseline, residentMegabytes());
+  const double loadSeconds = seconds(loadStart);
+  // (The file is parsed in a child process: the peak here is this process's own.)
+  std::printf("mesh: %s, %zu triangles, %zu vertices, loaded in %.2f s (peak memory while loading: %.0f MB, of "
+              "which %.0f before; held after: %.0f MB)\n",
+              o.mesh.c_str(), triangles.size(), mesh.positions.size(), loadSeconds, peakMegabytes(), baseline,
+              residentMegabytes());
 
   // ---- raylife's build ----------------------------------------------------------------------------------------
   const auto buildStart = Clock::now();
+  const double buildCpuStart = cpuSeconds();
   const Bvh bvh(std::span<const Sphere>(), mesh.positions, triangles);
-  const double buildSeconds = seconds(buildStart);
-  std::printf("raylife BVH: built in %.2f s (one thread), %zu wide nodes, depth %d; peak memory %.0f MB, held after "
-              "the build %.0f MB\n",
-              buildSeconds, bvh.wideNodes().size(), bvh.depth(), peakMegabytes(), residentMegabytes());
+  const double buildSeconds = seconds(buildStart), buildCpu = cpuSeconds() - buildCpuStart;
+  std::printf("raylife BVH: built in %.2f s (one thread; %.2f s of CPU time), %zu wide nodes, depth %d; peak "
+              "memory %.0f MB, held after the build %.0f MB\n",
+              buildSeconds, buildCpu, bvh.wideNodes().size(), bvh.depth(), peakMegabytes(), residentMegabytes());
 
   // ---- The rays ---------------------------------------------------------------------------------------------
   Vec3 lo(kInfinity), hi(-kInfinity);
@@ -226,8 +241,10 @@ int main(int argc, char** argv)
     rtcAttachGeometry(scene, geometry);
     rtcReleaseGeometry(geometry);
     const auto embreeStart = Clock::now();
+    const double embreeCpuStart = cpuSeconds();
     rtcCommitScene(scene);
-    std::printf("Embree BVH: built in %.2f s (one thread, default quality)\n", seconds(embreeStart));
+    std::printf("Embree BVH: built in %.2f s (one thread, default quality; %.2f s of CPU time)\n",
+                seconds(embreeStart), cpuSeconds() - embreeCpuStart);
     auto embreeHit = [&](const Ray& r) {
       RTCIntersectContext context;
       rtcInitIntersectContext(&context);
