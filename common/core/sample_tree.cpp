@@ -113,7 +113,7 @@ Vec2 SampleTree::sample(Vec2 u) const
     const Real bottom = s[std::size_t(qx)], column = qx == 0 ? left : right;
     const Real pBottom = bottom / column;
     const int qy = u.y < pBottom || !(column > bottom) ? 0 : 1;
-    u.y = qy == 0 ? u.y / pBottom : (u.y - pBottom) / (column - bottom);
+    u.y = qy == 0 ? u.y / pBottom : (u.y - pBottom) / (1 - pBottom);
     u = Vec2(std::clamp(u.x, Real(0), kBelowOne), std::clamp(u.y, Real(0), kBelowOne));
     size /= 2;
     offset += size * Vec2(Real(qx), Real(qy));

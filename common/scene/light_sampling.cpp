@@ -326,34 +326,50 @@ void LightSampler::learn(const LightGuiding& guiding)
 
   // 3. Samples of every light at every point, as the unguided sampler draws them, each with its shadow ray: per
   // cell and light, how many there were, how many were of use, and where in a sphere's cone those fell.
-  std::vector<std::size_t> drawn(cells * n, 0), useful(cells * n, 0);
-  std::vector<std::vector<Vec2>> usefulAt(cells * n);
+  // The shadow rays run on every core (each point has its own random numbers and its own slots for the
+  // answers), then the answers are gathered in point order, so what is learned does not depend on the threads.
   const int perPoint = std::max(1, guiding.samplesPerPoint);
-  for (std::size_t i = 0; i < points.size(); ++i) {
+  const std::size_t slots = n * std::size_t(perPoint);
+  std::vector<Vec2> drawnU(points.size() * slots);
+  std::vector<char> wasUseful(points.size() * slots, 0);
+#pragma omp parallel for schedule(dynamic, 64)
+  for (std::ptrdiff_t ii = 0; ii < std::ptrdiff_t(points.size()); ++ii) {
+    const std::size_t i = std::size_t(ii);
     const Point& p = points[i];
-    const int cell = cellOf(p.hit.point);
     const Material& m = scene_.materials[std::size_t(p.hit.material)];
     const Frame frame = Frame::fromNormal(p.hit.normal);
     const Vec3 wo = frame.toLocal(p.wo);
     Sampler sampler(guiding.seed + 1, int(i), 0, 0);
+    for (std::size_t k = 0; k < n; ++k)
+      for (int j = 0; j < perPoint; ++j) {
+        const std::size_t slot = i * slots + k * std::size_t(perPoint) + std::size_t(j);
+        const Vec2 u = drawnU[slot] = sampler.next2D();
+        const std::optional<LightSample> ls = sampleLight(k, 1, p.hit.point, u, p.hit.time);
+        wasUseful[slot] = ls && bsdfEval(m, wo, frame.toLocal(ls->wi)) != Color(0) && lightVisible(scene_, p.hit, *ls);
+      }
+  }
+  std::vector<std::size_t> drawn(cells * n, 0), useful(cells * n, 0);
+  std::vector<std::vector<Vec2>> usefulAt(cells * n);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Point& p = points[i];
+    const int cell = cellOf(p.hit.point);
     for (std::size_t k = 0; k < n; ++k) {
       const std::size_t at = std::size_t(cell) * n + k;
-      const bool sphere = lights_[k] >= 0 && std::size_t(lights_[k]) < scene_.spheres.size();
-      bool outside = true;
-      if (sphere) {
+      // A sphere's cone is guided only from outside it (from inside, the whole sphere of directions is sampled).
+      bool outside = false;
+      if (lights_[k] >= 0 && std::size_t(lights_[k]) < scene_.spheres.size()) {
         const Sphere& s = scene_.spheres[std::size_t(lights_[k])];
         const Vec3 toCentre = s.centerAt(p.hit.time) - p.hit.point;
         outside = glm::dot(toCentre, toCentre) > s.radius * s.radius;
       }
       for (int j = 0; j < perPoint; ++j) {
-        const Vec2 u = sampler.next2D();
+        const std::size_t slot = i * slots + k * std::size_t(perPoint) + std::size_t(j);
         ++drawn[at];
-        const std::optional<LightSample> ls = sampleLight(k, 1, p.hit.point, u, p.hit.time);
-        if (!ls || bsdfEval(m, wo, frame.toLocal(ls->wi)) == Color(0) || !lightVisible(scene_, p.hit, *ls))
+        if (!wasUseful[slot])
           continue;
         ++useful[at];
-        if (sphere && outside)
-          usefulAt[at].push_back(u);
+        if (outside)
+          usefulAt[at].push_back(drawnU[slot]);
       }
     }
   }

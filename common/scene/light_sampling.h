@@ -314,7 +314,7 @@ struct EmitterPoint {
 struct LightGuiding {
   int paths = 2048;            ///< Camera paths of the pre-pass, ≥ 1 (through the scene's own image size).
   int bounces = 3;             ///< Surfaces a pre-pass path meets at most, ≥ 1.
-  int samplesPerPoint = 8;     ///< Samples of each light at each surface point, ≥ 1.
+  int samplesPerPoint = 32;    ///< Samples of each light at each surface point, ≥ 1.
   int cellsPerAxis = 6;        ///< Cells along the longest side of the points' bounds, ≥ 1.
   /// The share of uniform cone sampling in the guided mixture, in (0, 1]: it keeps the pdf above 0 on the whole
   /// cone, so the estimate stays unbiased wherever the pre-pass missed light.
