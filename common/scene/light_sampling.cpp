@@ -6,9 +6,20 @@
 #include "shading/bsdf.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdio>
 
 namespace raylife {
+
+namespace {
+
+// The quadtrees of the light guide: at most 10 levels (leaves down to 1/1024 of a side), a node split while it
+// holds more than 1% of the useful samples and at least 8 of them.
+constexpr int kGuideDepth = 10;
+constexpr double kGuideSplit = 0.01;
+constexpr int kGuideMin = 8;
+
+} // namespace
 
 LightSampler::LightSampler(const Scene& scene) : scene_(scene)
 {
@@ -164,7 +175,7 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Ve
   const Vec3 toCentre = center - ref;
   if (glm::dot(toCentre, toCentre) <= s.radius * s.radius)
     return sampleLight(chosen, choice, ref, u, time); // inside the light: not guided
-  const Real a = uniformShare_;
+  const Real a = cellShare_[std::size_t(cell) * lights_.size() + chosen];
   const Vec2 uc = u.x < a ? Vec2(u.x / a, u.y)
                           : tree->sample(Vec2(std::min((u.x - a) / (1 - a), std::nextafter(Real(1), Real(0))), u.y));
   std::optional<LightSample> ls = sampleLight(chosen, choice, ref, uc, time);
@@ -261,7 +272,8 @@ Real LightSampler::pdf(const Vec3& ref, int primitive, const Vec3& point, Real t
   // The guided mixture's density at the numbers that give this direction.
   const Vec3 wi = safeNormalize(point - ref, Vec3(0, 0, 1));
   const Vec2 uc = sphereConeCoordinates(ref, center, s.radius, wi);
-  return cone * (uniformShare_ + (1 - uniformShare_) * tree->pdf(uc));
+  const Real a = cellShare_[std::size_t(cell) * lights_.size() + std::size_t(k)];
+  return cone * (a + (1 - a) * tree->pdf(uc));
 }
 
 // [learn]
@@ -326,33 +338,64 @@ void LightSampler::learn(const LightGuiding& guiding)
 
   // 3. Samples of every light at every point, as the unguided sampler draws them, each with its shadow ray: per
   // cell and light, how many there were, how many were of use, and where in a sphere's cone those fell.
-  // The shadow rays run on every core (each point has its own random numbers and its own slots for the
-  // answers), then the answers are gathered in point order, so what is learned does not depend on the threads.
-  const int perPoint = std::max(1, guiding.samplesPerPoint);
+  // In two rounds: first a quarter of the samples everywhere, then the rest only for the cells and lights that
+  // the first round found partly hidden (a light seen whole needs no guide, so a scene like the Cornell box costs
+  // a quarter of the pre-pass). The shadow rays run on every core (each point has its own random numbers and its
+  // own slots for the answers), then the answers are gathered in point order, so what is learned does not depend
+  // on the threads.
+  const int perPoint = std::max(1, guiding.samplesPerPoint), firstRound = std::max(1, perPoint / 4);
   const std::size_t slots = n * std::size_t(perPoint);
   std::vector<Vec2> drawnU(points.size() * slots);
-  std::vector<char> wasUseful(points.size() * slots, 0);
+  std::vector<char> wasUseful(points.size() * slots, 0), taken(points.size() * slots, 0);
+  std::vector<int> pointCell(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+    pointCell[i] = cellOf(points[i].hit.point);
+  std::vector<char> wanted(cells * n, 1); // per cell and light: draw its samples in this round
+  const auto drawRound = [&](int from, int to) {
 #pragma omp parallel for schedule(dynamic, 64)
-  for (std::ptrdiff_t ii = 0; ii < std::ptrdiff_t(points.size()); ++ii) {
-    const std::size_t i = std::size_t(ii);
-    const Point& p = points[i];
-    const Material& m = scene_.materials[std::size_t(p.hit.material)];
-    const Frame frame = Frame::fromNormal(p.hit.normal);
-    const Vec3 wo = frame.toLocal(p.wo);
-    Sampler sampler(guiding.seed + 1, int(i), 0, 0);
-    for (std::size_t k = 0; k < n; ++k)
-      for (int j = 0; j < perPoint; ++j) {
-        const std::size_t slot = i * slots + k * std::size_t(perPoint) + std::size_t(j);
-        const Vec2 u = drawnU[slot] = sampler.next2D();
-        const std::optional<LightSample> ls = sampleLight(k, 1, p.hit.point, u, p.hit.time);
-        wasUseful[slot] = ls && bsdfEval(m, wo, frame.toLocal(ls->wi)) != Color(0) && lightVisible(scene_, p.hit, *ls);
+    for (std::ptrdiff_t ii = 0; ii < std::ptrdiff_t(points.size()); ++ii) {
+      const std::size_t i = std::size_t(ii);
+      const Point& p = points[i];
+      const Material& m = scene_.materials[std::size_t(p.hit.material)];
+      const Frame frame = Frame::fromNormal(p.hit.normal);
+      const Vec3 wo = frame.toLocal(p.wo);
+      for (std::size_t k = 0; k < n; ++k) {
+        if (!wanted[std::size_t(pointCell[i]) * n + k])
+          continue;
+        // Each point, light and round has its own stream of numbers.
+        Sampler sampler(guiding.seed + 1 + k, int(i), from, 0);
+        for (int j = from; j < to; ++j) {
+          const std::size_t slot = i * slots + k * std::size_t(perPoint) + std::size_t(j);
+          const Vec2 u = drawnU[slot] = sampler.next2D();
+          const std::optional<LightSample> ls = sampleLight(k, 1, p.hit.point, u, p.hit.time);
+          taken[slot] = 1;
+          wasUseful[slot] =
+              ls && bsdfEval(m, wo, frame.toLocal(ls->wi)) != Color(0) && lightVisible(scene_, p.hit, *ls);
+        }
       }
+    }
+  };
+  drawRound(0, firstRound);
+  std::vector<std::size_t> drawn1(cells * n, 0), useful1(cells * n, 0); // of the first round: every cell alike
+  {
+    for (std::size_t i = 0; i < points.size(); ++i)
+      for (std::size_t k = 0; k < n; ++k)
+        for (int j = 0; j < firstRound; ++j) {
+          const std::size_t slot = i * slots + k * std::size_t(perPoint) + std::size_t(j);
+          ++drawn1[std::size_t(pointCell[i]) * n + k];
+          useful1[std::size_t(pointCell[i]) * n + k] += std::size_t(wasUseful[slot]);
+        }
+    for (std::size_t at = 0; at < cells * n; ++at)
+      wanted[at] = useful1[at] > 0 && Real(useful1[at]) < guiding.guideBelow * Real(drawn1[at]);
   }
+  drawRound(firstRound, perPoint);
+
   std::vector<std::size_t> drawn(cells * n, 0), useful(cells * n, 0);
-  std::vector<std::vector<Vec2>> usefulAt(cells * n);
+  // The useful samples' numbers, apart for points of even and of odd index (each half tests the other's guide).
+  std::vector<std::array<std::vector<Vec2>, 2>> usefulAt(cells * n);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Point& p = points[i];
-    const int cell = cellOf(p.hit.point);
+    const int cell = pointCell[i];
     for (std::size_t k = 0; k < n; ++k) {
       const std::size_t at = std::size_t(cell) * n + k;
       // A sphere's cone is guided only from outside it (from inside, the whole sphere of directions is sampled).
@@ -364,29 +407,58 @@ void LightSampler::learn(const LightGuiding& guiding)
       }
       for (int j = 0; j < perPoint; ++j) {
         const std::size_t slot = i * slots + k * std::size_t(perPoint) + std::size_t(j);
+        if (!taken[slot])
+          continue;
         ++drawn[at];
         if (!wasUseful[slot])
           continue;
         ++useful[at];
         if (outside)
-          usefulAt[at].push_back(drawnU[slot]);
+          usefulAt[at][i % 2].push_back(drawnU[slot]);
       }
     }
   }
 
   // 4. Per cell: the choice of a light, ½ by power and ½ by power × share of useful samples; and for a sphere
-  // light seen only in part, the density of its useful samples in the cone (SampleTree).
-  uniformShare_ = std::clamp(guiding.uniformShare, Real(1e-3), Real(1));
+  // light seen only in part, the density of its useful samples in the cone (SampleTree) and its mix with the
+  // uniform cone, where that lowers the variance.
+  cellShare_.assign(cells * n, 1);
   cellCdf_.assign(cells * n, 0);
   cellTree_.assign(cells * n, SampleTree());
   std::vector<Real> power(n);
   for (std::size_t k = 0; k < n; ++k)
     power[k] = cdf_[k] - (k > 0 ? cdf_[k - 1] : 0);
+  // A guide is judged on points it was not learned from: the tree of the even points on the odd ones' samples and
+  // the other way round. With samples uniform in the cone and v = 1 for a useful one, the second moment of the
+  // estimate (its variance, but for the square of the mean) is ∝ Σ v under uniform sampling and Σ v / q(u) under
+  // the mixture q, for each uniform share α tried; the cell is guided with the best α only where that sum falls
+  // below guiding.keepBelow × the uniform one.
+  const auto chooseShare = [&](const std::array<std::vector<Vec2>, 2>& halves) -> Real {
+    const std::array<SampleTree, 2> trees = {SampleTree::fromPoints(halves[0], kGuideDepth, kGuideSplit, kGuideMin),
+                                             SampleTree::fromPoints(halves[1], kGuideDepth, kGuideSplit, kGuideMin)};
+    const double uniformMoment = double(halves[0].size() + halves[1].size());
+    Real best = 1;
+    double bestMoment = uniformMoment * double(guiding.keepBelow);
+    for (const Real alpha : {Real(0.15), Real(0.3), Real(0.5), Real(0.7)}) {
+      double moment = 0;
+      for (std::size_t h = 0; h < 2; ++h)
+        for (const Vec2& u : halves[h])
+          moment += 1 / double(alpha + (1 - alpha) * trees[1 - h].pdf(u));
+      if (moment < bestMoment) {
+        bestMoment = moment;
+        best = alpha;
+      }
+    }
+    return best;
+  };
   // For the report: useful samples before (uniform) and as expected after guiding (each uniform sample weighted
   // by the guided pdf over the uniform one), summed over cells.
   std::vector<double> before(n, 0), after(n, 0), count(n, 0);
   std::vector<int> guidedCells(n, 0), leaves(n, 0);
   double chosenBefore = 0, chosenAfter = 0, pointsTotal = 0;
+  std::vector<std::size_t> pointsIn(cells, 0);
+  for (const int pc : pointCell)
+    ++pointsIn[std::size_t(pc)];
   for (std::size_t c = 0; c < cells; ++c) {
     if (!cellLearned_[c])
       continue;
@@ -398,23 +470,28 @@ void LightSampler::learn(const LightGuiding& guiding)
       afterShare[k] = share[k];
       weight[k] = power[k] * share[k];
       totalWeight += weight[k];
-      if (!usefulAt[at].empty() && share[k] < guiding.guideBelow) {
-        cellTree_[at] = SampleTree::fromPoints(usefulAt[at], 10, 0.01, 8);
+      const Real alpha = share[k] < guiding.guideBelow ? chooseShare(usefulAt[at]) : Real(1);
+      if (alpha < 1) {
+        std::vector<Vec2> all = usefulAt[at][0];
+        all.insert(all.end(), usefulAt[at][1].begin(), usefulAt[at][1].end());
+        cellTree_[at] = SampleTree::fromPoints(all, kGuideDepth, kGuideSplit, kGuideMin);
+        cellShare_[at] = alpha;
         if (!cellTree_[at].uniform()) {
           double expected = 0;
-          for (const Vec2& u : usefulAt[at])
-            expected += double(uniformShare_ + (1 - uniformShare_) * cellTree_[at].pdf(u));
+          for (const Vec2& u : all)
+            expected += double(alpha + (1 - alpha) * cellTree_[at].pdf(u));
           afterShare[k] = Real(expected / double(drawn[at]));
           ++guidedCells[k];
           leaves[k] = std::max(leaves[k], cellTree_[at].leafCount());
         }
       }
-      before[k] += double(useful[at]);
-      after[k] += double(afterShare[k]) * double(drawn[at]);
-      count[k] += double(drawn[at]);
+      // Weighted by the first round's samples, which every cell drew alike.
+      before[k] += double(useful1[at]);
+      after[k] += double(afterShare[k]) * double(drawn1[at]);
+      count[k] += double(drawn1[at]);
     }
     Real running = 0;
-    const double cellPoints = double(drawn[c * n]) / perPoint;
+    const double cellPoints = double(pointsIn[c]);
     for (std::size_t k = 0; k < n; ++k) {
       const Real p = totalWeight > 0 ? (power[k] + weight[k] / totalWeight) / 2 : power[k];
       running += p;
@@ -438,10 +515,10 @@ void LightSampler::learn(const LightGuiding& guiding)
   for (char l : cellLearned_)
     learned += std::size_t(l);
   guideReport_.push_back("light guide: " + std::to_string(points.size()) + " surface points of " +
-                         std::to_string(guiding.paths) + " camera paths, " + std::to_string(perPoint) +
-                         " samples of each of " + std::to_string(n) + " lights at each, in " +
-                         std::to_string(learned) + " of " + std::to_string(cells) + " cells (" +
-                         std::to_string(gridSize_.x) + "x" + std::to_string(gridSize_.y) + "x" +
+                         std::to_string(guiding.paths) + " camera paths, " + std::to_string(firstRound) +
+                         " samples of each of " + std::to_string(n) + " lights at each (" + std::to_string(perPoint) +
+                         " where partly hidden), in " + std::to_string(learned) + " of " + std::to_string(cells) +
+                         " cells (" + std::to_string(gridSize_.x) + "x" + std::to_string(gridSize_.y) + "x" +
                          std::to_string(gridSize_.z) + ")");
   for (std::size_t k = 0; k < n; ++k) {
     const int light = lights_[k];
