@@ -43,7 +43,7 @@ std::vector<Vec2> clusteredPoints(int count, std::uint64_t seed)
 
 } // namespace
 
-TEST_CASE("sample tree: few points give the uniform density; many give a deep tree")
+TEST_CASE("sample tree: few points give the uniform density - many give a deep tree")
 {
   CHECK(SampleTree::fromPoints(clusteredPoints(7, 1), 8, 0.01, 8).uniform());
   const SampleTree tree = SampleTree::fromPoints(clusteredPoints(20000, 1), 8, 0.01, 8);
