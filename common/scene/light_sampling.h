@@ -309,8 +309,9 @@ struct EmitterPoint {
 /// with a shadow ray each. A sample is of use when the light is visible along it and the BSDF there is not 0 for
 /// it. The points fall into cells of a grid over their bounds; per cell and light the sampler keeps the share of
 /// useful samples and, for a sphere light, where in its cone they were (a SampleTree over the numbers that
-/// choose the direction). Its numbers come from `seed` alone, and it runs on one thread: what it learns does not
-/// depend on --seed, --threads, the image's size or how the samples are shared between processes.
+/// choose the direction). Its numbers come from `seed` alone, and its shadow rays' answers (traced on every core)
+/// are gathered in point order: what it learns does not depend on --seed, --threads, the image's size or how the
+/// samples are shared between processes.
 struct LightGuiding {
   int paths = 2048;            ///< Camera paths of the pre-pass, ≥ 1 (through the scene's own image size).
   int bounces = 3;             ///< Surfaces a pre-pass path meets at most, ≥ 1.
