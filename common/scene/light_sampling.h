@@ -305,8 +305,8 @@ struct EmitterPoint {
 /// How a LightSampler learns, before the render, where each light's samples are of use (the guided constructor).
 ///
 /// A pre-pass follows `paths` paths from the camera (BSDF-sampled, at most `bounces` surfaces each) and, at each
-/// non-specular surface they meet, draws `samplesPerPoint` samples of every light as the unguided sampler would,
-/// with a shadow ray each. A sample is of use when the light is visible along it and the BSDF there is not 0 for
+/// non-specular surface they meet, draws a quarter of `samplesPerPoint` samples of every light as the unguided
+/// sampler would, with a shadow ray each, and the rest where the first quarter found that light partly hidden. A sample is of use when the light is visible along it and the BSDF there is not 0 for
 /// it. The points fall into cells of a grid over their bounds; per cell and light the sampler keeps the share of
 /// useful samples and, for a sphere light, where in its cone they were (a SampleTree over the numbers that
 /// choose the direction). Its numbers come from `seed` alone, and its shadow rays' answers (traced on every core)
