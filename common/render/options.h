@@ -45,8 +45,9 @@ class ChapterOptions {
 public:
   ChapterOptions() = default;
   /// @param specs The chapter's options. @param given Raw values by name (checked), "" for a flag given.
-  ChapterOptions(std::vector<ChapterOption> specs, std::map<std::string, std::string> given)
-      : specs_(std::move(specs)), given_(std::move(given)) {}
+  /// @param verbose Whether --verbose was given (a chapter then says what it built for the scene).
+  ChapterOptions(std::vector<ChapterOption> specs, std::map<std::string, std::string> given, bool verbose = false)
+      : specs_(std::move(specs)), given_(std::move(given)), verbose_(verbose) {}
   /// Whether flag `name` was given. @throws std::logic_error if the chapter declared no such flag.
   bool flag(const std::string& name) const;
   /// The word of Choice `name`. @throws std::logic_error if the chapter declared no such choice.
@@ -59,11 +60,14 @@ public:
   std::vector<long long> integers(const std::string& name) const;
   /// Whether option `name` was given on the command line (rather than taking its default).
   bool given(const std::string& name) const { return given_.count(name) > 0; }
+  /// Whether --verbose was given: the chapter may then print, on standard error, what it built for the scene.
+  bool verbose() const { return verbose_; }
 
 private:
   const std::string& value(const std::string& name, OptionKind kind) const;
   std::vector<ChapterOption> specs_;
   std::map<std::string, std::string> given_;
+  bool verbose_ = false;
 };
 
 /// What the command line asked for. Zero or empty means "the chapter's or the scene's default".

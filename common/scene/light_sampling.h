@@ -11,20 +11,33 @@
 
 #include "core/math.h"
 #include "core/sampling.h"
+#include "core/sample_tree.h"
 #include "scene/scene.h"
 #include "geometry/sphere.h"
 #include "geometry/triangle.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cmath>
 #include <numbers>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
 namespace raylife {
 
 // ---- The cone a sphere subtends -------------------------------------------------------------------------------
+
+/// Two unit vectors that make a right-handed orthonormal frame (s, t, n) with unit vector `n` (Duff et al.'s
+/// construction, as in frame.h): sampleSphereCone and sphereConeCoordinates measure the azimuth φ in it.
+template <class T> std::pair<TVec3<T>, TVec3<T>> coneAxisFrame(const TVec3<T>& n)
+{
+  const T sign = std::copysign(T(1), n.z);
+  const T a = T(-1) / (sign + n.z);
+  const T b = n.x * n.y * a;
+  return {TVec3<T>(1 + sign * n.x * n.x * a, sign * b, -sign * n.x), TVec3<T>(b, sign + n.y * n.y * a, -n.y)};
+}
 
 // [cone]
 /// 1 − cosθmax of the cone that a sphere with sin²θmax = r²/d² subtends, computed without cancellation.
@@ -75,15 +88,34 @@ template <class T> TVec3<T> sampleSphereCone(const TVec3<T>& ref, const TVec3<T>
   const SinCos<T> phi = sinCos2Pi(u.y);
   // Build the direction in a frame around the axis towards the centre (Duff et al., as in frame.h).
   const TVec3<T> n = toCentre / std::sqrt(d2);
-  const T sign = std::copysign(T(1), n.z);
-  const T a = T(-1) / (sign + n.z);
-  const T b = n.x * n.y * a;
-  const TVec3<T> s(1 + sign * n.x * n.x * a, sign * b, -sign * n.x);
-  const TVec3<T> t(b, sign + n.y * n.y * a, -n.y);
+  const auto [s, t] = coneAxisFrame(n);
   return glm::normalize(sinTheta * phi.cos * s + sinTheta * phi.sin * t + cosTheta * n);
 }
 
 // [cone]
+
+/// The inverse of sampleSphereCone from outside the sphere: the numbers u in [0, 1)² that give direction `wi`
+/// (unit, inside the cone), u.x = (1 − cosθ)/(1 − cosθmax) and u.y = φ/(2π) in the same frame. A direction
+/// outside the cone (by rounding, at its edge) gets u.x just below 1. Contract: |ref − c| > r.
+/// @param ref the point the direction leaves from. @param c the sphere's centre. @param r its radius, > 0.
+/// @param wi a unit direction from `ref`.
+template <class T>
+glm::vec<2, T> sphereConeCoordinates(const TVec3<T>& ref, const TVec3<T>& c, T r, const TVec3<T>& wi)
+{
+  const TVec3<T> toCentre = c - ref;
+  const T d2 = glm::dot(toCentre, toCentre);
+  const TVec3<T> n = toCentre / std::sqrt(d2);
+  const auto [s, t] = coneAxisFrame(n);
+  // 1 − cosθ = |wi − n|²/2 for unit vectors, without the cancellation of 1 − wi·n near the axis.
+  const TVec3<T> off = wi - n;
+  const T oneMinusCos = glm::dot(off, off) / 2;
+  const T belowOne = std::nextafter(T(1), T(0));
+  const T x = std::clamp(oneMinusCos / oneMinusCosConeAngle(r * r / d2), T(0), belowOne);
+  T y = std::atan2(glm::dot(wi, t), glm::dot(wi, s)) / (2 * std::numbers::pi_v<T>);
+  if (y < 0)
+    y += 1;
+  return glm::vec<2, T>(x, std::clamp(y, T(0), belowOne));
+}
 
 // ---- The solid angle a triangle subtends -----------------------------------------------------------------------
 
@@ -270,6 +302,32 @@ struct EmitterPoint {
   Real pdfArea = 0; ///< The probability of choosing this emitter times 1/area: the density of the point, per unit area.
 };
 
+/// How a LightSampler learns, before the render, where each light's samples are of use (the guided constructor).
+///
+/// A pre-pass follows `paths` paths from the camera (BSDF-sampled, at most `bounces` surfaces each) and, at each
+/// non-specular surface they meet, draws a quarter of `samplesPerPoint` samples of every light as the unguided
+/// sampler would, with a shadow ray each, and the rest where the first quarter found that light partly hidden. A sample is of use when the light is visible along it and the BSDF there is not 0 for
+/// it. The points fall into cells of a grid over their bounds; per cell and light the sampler keeps the share of
+/// useful samples and, for a sphere light, where in its cone they were (a SampleTree over the numbers that
+/// choose the direction). Its numbers come from `seed` alone, and its shadow rays' answers (traced on every core)
+/// are gathered in point order: what it learns does not depend on --seed, --threads, the image's size or how the
+/// samples are shared between processes.
+struct LightGuiding {
+  int paths = 2048;            ///< Camera paths of the pre-pass, ≥ 1 (through the scene's own image size).
+  int bounces = 3;             ///< Surfaces a pre-pass path meets at most, ≥ 1.
+  int samplesPerPoint = 32;    ///< Samples of each light at each surface point, ≥ 1.
+  int cellsPerAxis = 6;        ///< Cells along the longest side of the points' bounds, ≥ 1.
+  /// A cell's light is guided only while less than this share of its samples are of use (in (0, 1]): for a light
+  /// seen almost whole, guiding could gain little and its learned noise would cost.
+  Real guideBelow = Real(0.8);
+  /// A cell's light is guided only where the mixture's second moment, measured on points the guide was not learned
+  /// from, is below this share of uniform sampling's (in (0, 1]); the mixture's uniform share α is the best of
+  /// 0.15, 0.3, 0.5 and 0.7 by the same measure. α keeps the pdf above 0 on the whole cone, so the estimate stays
+  /// unbiased wherever the pre-pass missed light.
+  Real keepBelow = Real(0.9);
+  std::uint64_t seed = 0x5eed1e57ull; ///< The pre-pass's random numbers.
+};
+
 /// Chooses one of a scene's lights (its emissive spheres and triangles, and its point lights) in proportion to an
 /// estimate of its power, and a direction towards it.
 ///
@@ -283,6 +341,16 @@ class LightSampler {
 public:
   /// Collects the lights of `scene` and their power.
   explicit LightSampler(const Scene& scene);
+  /// Collects them and learns, by the pre-pass of `guiding`, where each light's samples are of use: sample() and
+  /// pdf() then choose, in the cell of the shaded point, a light with probability ½ ∝ power + ½ ∝ power × its
+  /// share of useful samples there, and a direction in a sphere light's cone from the mixture
+  /// α × uniform + (1 − α) × the learned SampleTree, α chosen per cell and light (see LightGuiding). Both are > 0 wherever the unguided
+  /// sampler's are, so every estimate stays unbiased. Deterministic (see LightGuiding).
+  LightSampler(const Scene& scene, const LightGuiding& guiding);
+
+  /// What the guided constructor learned, one line each (for --verbose): the pre-pass, and per light the share
+  /// of useful samples before and after guiding. Empty for an unguided sampler.
+  std::vector<std::string> describeGuide() const { return guideReport_; }
 
   /// True when the scene has no light to sample (only the background, if anything, lights it).
   bool empty() const { return cdf_.empty(); }
@@ -315,13 +383,32 @@ public:
   Vec3 normalAt(int primitive, const Vec3& point) const;
 
 private:
-  // The index into lights_ that `uLight` chooses (cdf_ not empty), and the probability of that choice.
-  std::pair<std::size_t, Real> choose(Real uLight) const;
+  // The index into lights_ that `uLight` chooses (cdf_ not empty), and the probability of that choice, in the
+  // guide's cell `cell` (−1: by power alone).
+  std::pair<std::size_t, Real> choose(Real uLight, int cell = -1) const;
+  // The guide's cell of point `ref`, or −1 when there is no guide or the cell learned nothing.
+  int cellOf(const Vec3& ref) const;
+  // The index into lights_ of emitter `primitive`, or −1.
+  int lightIndex(int primitive) const;
+  // A direction towards lights_[k] from `ref`, chosen with probability `choice`, as the unguided sampler does.
+  std::optional<LightSample> sampleLight(std::size_t k, Real choice, const Vec3& ref, Vec2 u, Real time) const;
+  // The pre-pass of the guided constructor.
+  void learn(const LightGuiding& guiding);
 
   const Scene& scene_;
   std::vector<int> lights_;   // ≥ 0: an emitter's primitive number; < 0: point light −(index + 1)
   std::vector<Real> cdf_;     // cumulative probability of lights_[0..i], the last exactly 1
   std::vector<std::pair<int, Real>> emitters_; // (primitive, choice probability) of each emitter, by primitive
+
+  // The guide (empty without one): a grid of cells over the pre-pass's points, and per cell and light (index
+  // cell × lights_.size() + k) the cumulative choice probability and the learned density in a sphere's cone.
+  Vec3 gridMin_{0}, gridScale_{0}; // cell coordinates of a point: (point − gridMin_) × gridScale_
+  glm::ivec3 gridSize_{0};
+  std::vector<char> cellLearned_;   // per cell: 1 when points fell into it
+  std::vector<Real> cellCdf_;
+  std::vector<SampleTree> cellTree_;
+  std::vector<Real> cellShare_;     // the mixture's uniform share α (1: not guided)
+  std::vector<std::string> guideReport_;
 };
 
 // [visible]

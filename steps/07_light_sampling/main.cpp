@@ -18,6 +18,7 @@
 #include "shading/bsdf.h"
 #include "core/frame.h"
 #include "scene/light_sampling.h"
+#include "render/guided_lights.h"
 #include "render/runner.h"
 #include "core/sampling.h"
 #include "scene/scene_plan.h"
@@ -101,14 +102,18 @@ int main(int argc, char** argv)
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
                             .defaultMaxDepth = -1,
-                            .adaptiveSampling = true};
+                            .adaptiveSampling = true,
+                            .options = {kGuideOption}};
   /// [chapter]
-  // The light sampler is built once per scene, before the render, and shared (read-only) by every thread.
+  // The light sampler is built once per scene, before the render, and shared (read-only) by every thread. By
+  // default it first learns where each light is seen (a short pre-pass, the same for every --seed and --threads),
+  // so that a lamp mostly hidden behind something is sampled where it shows (docs/07_light_sampling.md).
   // The plan (scene_plan.h): with no emitter and no point light there is nothing to sample, so the trace does BSDF
   // sampling only (exact: the image is the same, bit for bit).
-  return runChapter(argc, argv, chapter, [&chapter](const Scene& scene) -> TraceFunction {
-    return [lights = LightSampler(scene), sampleLights = planScene(scene, chapter.uses).lightSampling()](
-               const Scene& s, const Ray& ray, Sampler& sampler, int maxDepth) {
+  return runChapter(argc, argv, chapter, [&chapter](const Scene& scene, const ChapterOptions& options) {
+    return [lights = makeLightSampler(chapter.binary, scene, options),
+            sampleLights = planScene(scene, chapter.uses).lightSampling()](const Scene& s, const Ray& ray,
+                                                                           Sampler& sampler, int maxDepth) {
       return trace(lights, sampleLights, s, ray, sampler, maxDepth);
     };
   });

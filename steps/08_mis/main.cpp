@@ -19,6 +19,7 @@
 #include "shading/bsdf.h"
 #include "core/frame.h"
 #include "scene/light_sampling.h"
+#include "render/guided_lights.h"
 #include "render/runner.h"
 #include "core/sampling.h"
 #include "scene/scene_plan.h"
@@ -129,15 +130,17 @@ int main(int argc, char** argv)
                                          .kind = OptionKind::Choice,
                                          .help = "how MIS weights the two strategies",
                                          .defaultValue = "power",
-                                         .choices = {"power", "balance"}}}};
+                                         .choices = {"power", "balance"}},
+                                        kGuideOption}};
   /// [chapter]
   // The light sampler is built once per scene, before the render, and shared (read-only) by every thread.
   // The plan (scene_plan.h): with no emitter and no point light there is nothing to sample, so the trace does BSDF
   // sampling only (exact: the image is the same, bit for bit).
   auto makeTrace = [&chapter](const Scene& scene, const ChapterOptions& options) -> TraceFunction {
     const Heuristic heuristic = options.choice("--heuristic") == "power" ? Heuristic::Power : Heuristic::Balance;
-    return [heuristic, lights = LightSampler(scene), sampleLights = planScene(scene, chapter.uses).lightSampling()](
-               const Scene& s, const Ray& ray, Sampler& sampler, int maxDepth) {
+    return [heuristic, lights = makeLightSampler(chapter.binary, scene, options),
+            sampleLights = planScene(scene, chapter.uses).lightSampling()](const Scene& s, const Ray& ray,
+                                                                           Sampler& sampler, int maxDepth) {
       return trace(lights, sampleLights, heuristic, s, ray, sampler, maxDepth);
     };
   };

@@ -1,0 +1,24 @@
+#include "render/guided_lights.h"
+
+#include <iostream>
+
+namespace raylife {
+
+const ChapterOption kGuideOption{.name = "--guide",
+                                 .kind = OptionKind::Choice,
+                                 .help = "learn where each light is seen before the render (on), or not (off)",
+                                 .defaultValue = "on",
+                                 .choices = {"on", "off"}};
+
+LightSampler makeLightSampler(const std::string& name, const Scene& scene, const ChapterOptions& options)
+{
+  if (options.choice("--guide") == "off")
+    return LightSampler(scene);
+  LightSampler lights(scene, LightGuiding{});
+  if (options.verbose())
+    for (const std::string& line : lights.describeGuide())
+      std::cerr << name << ": " << line << "\n";
+  return lights;
+}
+
+} // namespace raylife
