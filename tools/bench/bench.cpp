@@ -105,7 +105,8 @@ std::string slopeVerdict(double slope)
   if (slopeAcceptable(slope))
     return "within ±0.15 of −1";
   if (slope > kIdealSlope)
-    return "**FLAGGED**: shallower than 1/N (an error floor, as a bias gives)";
+    return "**FLAGGED**: shallower than 1/N (an error floor, as a bias gives; or a heavy tail: rare, bright samples "
+           "that the small budgets mostly miss raise the larger budgets' error)";
   return "**FLAGGED**: steeper than 1/N (as stratified pixel positions give where edges carry the error; a bias "
          "would make it shallower)";
 }

@@ -69,7 +69,8 @@ inline constexpr double kSlopeTolerance = 0.15;
 /// True when `slope` lies within kSlopeTolerance of kIdealSlope.
 bool slopeAcceptable(double slope);
 /// The summary's verdict on a slope: "within ±0.15 of −1", or "**FLAGGED**" with the direction and what it points
-/// to: shallower than 1/N is an error floor, as a bias gives; steeper is what stratified pixel positions give
+/// to: shallower than 1/N is an error floor, as a bias gives, or a heavy tail (rare, bright samples that small
+/// budgets mostly miss, so that their error looks smaller than it is); steeper is what stratified pixel positions give
 /// where edges carry the error (a scene of sky and silhouettes), which no bias does.
 std::string slopeVerdict(double slope);
 

@@ -842,7 +842,7 @@ int main(int argc, char** argv)
       if (!s.acceptable)
         std::cout << "raylife_bench: FLAGGED: " << s.scene << " " << s.chapter << " has slope "
                   << formatNumber(s.fit.slope, 4) << ", outside −1 ± " << kSlopeTolerance
-                  << (s.fit.slope > kIdealSlope ? " (shallower: an error floor, as a bias gives)"
+                  << (s.fit.slope > kIdealSlope ? " (shallower: an error floor, as a bias gives, or a heavy tail)"
                                                 : " (steeper: as stratified pixel positions give on edges)")
                   << "\n";
     for (const std::string& n : context.notes)
