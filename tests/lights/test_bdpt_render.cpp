@@ -1,6 +1,7 @@
 // Chapter 13 (bidirectional path tracing) as students run it: unbiased against chapter 6 by the z-test of
 // compare_renders.h, on the Cornell box (mirror and glass balls), the caustic scene, the mirror corner and the glossy
-// box; the weighted images of its strategies (--strategy s,t) sum to the full image; splats keep --time, --variance and --stats working.
+// box; the weighted images of its strategies (--strategy s,t) sum to the full image; splats keep --time, --variance
+// and --stats working.
 #include "../analytic/run_chapter.h"
 #include "compare_renders.h"
 
