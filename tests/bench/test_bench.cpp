@@ -83,6 +83,58 @@ TEST_CASE("the reference's share is what its own noise adds to the measured erro
   CHECK(m.relativeMse == Approx(m.referenceRelativeMse).epsilon(0.1));
 }
 
+TEST_CASE("cellSums adds the pixels of each cell, the last cells of a row and a column being smaller")
+{
+  Image im(5, 3);
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 5; ++x)
+      for (int c = 0; c < 3; ++c)
+        im.at(x, y, c) = float(1 + x + 10 * y + 100 * c);
+  const Image cells = cellSums(im, 2);
+  REQUIRE(cells.width == 3);
+  REQUIRE(cells.height == 2);
+  CHECK(cells.at(0, 0, 0) == 1 + 2 + 11 + 12);
+  CHECK(cells.at(2, 0, 1) == 105 + 115);  // the last column: one pixel wide
+  CHECK(cells.at(1, 1, 2) == 223 + 224);  // the last row: one pixel high
+  CHECK(cells.at(2, 1, 0) == 25);         // the corner: one pixel
+  CHECK(cellSums(im, 1).pixels == im.pixels);
+  CHECK_THROWS_AS(cellSums(im, 0), std::invalid_argument);
+}
+
+TEST_CASE("in cells the reference check sees a regional bias that it misses per pixel, and keeps its total z")
+{
+  // The reference is 4% too bright over a 16 x 16 region, 0.67 standard errors per pixel: per pixel hardly a channel
+  // fails, per cell of 8 x 8 pixels (8 times the signal over the noise: z about 5.3) the region's cells do.
+  std::mt19937 rng(11);
+  std::normal_distribution<double> unit(0, 1);
+  const int w = 64, h = 48;
+  const double value = 0.5, sigma = 0.03;
+  Image check(w, h), ref(w, h), var = filled(w, h, float(sigma * sigma / 2));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) {
+        check.at(x, y, c) = float(value + sigma / std::sqrt(2.0) * unit(rng));
+        const double bias = x < 16 && y < 16 ? 0.04 * value : 0;
+        ref.at(x, y, c) = float(value + bias + sigma / std::sqrt(2.0) * unit(rng));
+      }
+  const ZTestResult pixels = zTestImages(check, var, ref, var, 3.29, 1e-12);
+  const ZTestResult cells =
+      zTestImages(cellSums(check, 8), cellSums(var, 8), cellSums(ref, 8), cellSums(var, 8), 3.29, 1e-12);
+  CHECK(pixels.failedShare < 0.01);       // the bench's per-pixel bound would trust it
+  CHECK(cells.failedShare > 0.05);        // of 144 cell channels, 12 in the region: the bench refuses it
+  CHECK(cells.totalZ == Approx(pixels.totalZ).epsilon(1e-3));
+}
+
+TEST_CASE("relative variance per sample: the variance of the mean times spp, over ref^2 + 0.01")
+{
+  Image var(2, 1), ref(2, 1);
+  var.pixels = {0.01f, 0, 0, 0.002f, 0.002f, 0.002f};
+  ref.pixels = {0, 1, 1, 1, 1, 1};
+  CHECK(relativeVariancePerSample(var, 100, ref) ==
+        Approx((0.01 * 100 / 0.01 + 3 * 0.002 * 100 / 1.01) / 6).epsilon(1e-6));
+  CHECK_THROWS_AS(relativeVariancePerSample(var, 100, Image(1, 1)), std::invalid_argument);
+}
+
 TEST_CASE("the slope of an exact power law is its exponent")
 {
   std::vector<double> x, y;
@@ -452,6 +504,9 @@ TEST_CASE("the summary gives equal-time error and efficiency with ratios to chap
   k.referenceChapter = "step07_light_sampling";
   k.checkChapter = "step06_path_tracer";
   k.passed = true;
+  k.cell = 8;
+  k.referenceVariance = 0.34;
+  k.checkVariance = 1.9;
   c.checks.push_back(k);
   const std::string md = summaryMarkdown(rows, c);
   CAPTURE(md);
@@ -459,6 +514,9 @@ TEST_CASE("the summary gives equal-time error and efficiency with ratios to chap
   CHECK(md.find("| step07_light_sampling | 10 | 2 | 0.01 | 0.2× | 50 | 5× |") != std::string::npos);
   CHECK(md.find("| step06_path_tracer | 20 | 2 | 0.05 | 1× | 10 | 1× |") != std::string::npos);
   CHECK(md.find("**trusted**") != std::string::npos);
+  CHECK(md.find("in cells of 8×8 pixels") != std::string::npos);
+  CHECK(md.find("step07_light_sampling 0.34, step06_path_tracer 1.9.") != std::string::npos);
+  CHECK(md.find("should render the reference") == std::string::npos);
   CHECK(md.find("| cornell.json | step06_path_tracer | -1 | 1 | 5 |") != std::string::npos);
   // Thread scaling: 3 s on 1 thread against 1.6 s on 2 at 16 spp, identical errors.
   CHECK(md.find("| cornell.json | step06_path_tracer | 16 | 1 | 3 | 2 | 1.6 | 1.88× | yes |") != std::string::npos);

@@ -1,6 +1,7 @@
 // Chapter 13's MIS weights on single paths: for random paths of 3 edges in a closed diffuse room (eye -> z1 -> z2 ->
 // a point y0 on a lamp), the weights the chapter's own functions give the four strategies that make such a path,
-// (0,4), (1,3), (2,2) and (3,1), must sum to one. The chapter's main.cpp is compiled here (its main renamed), and each
+// (0,4), (1,3), (2,2) and (3,1), must sum to one; and for paths through a mirror (eye -> z1 -> mirror -> lamp), those
+// of the two strategies that can make them. The chapter's main.cpp is compiled here (its main renamed), and each
 // weight is read back from the contribution its function returns, divided by what the weight multiplies.
 #define main step13Main
 #include "../../steps/13_bdpt/main.cpp"
@@ -132,5 +133,104 @@ TEST_CASE("the MIS weights of the strategies that make a path sum to one (random
     ++checked;
   }
   std::cout << "MIS weights of " << checked << " paths of 3 edges: largest |sum - 1| = " << worst << "\n";
+  CHECK(checked >= 50);
+}
+
+TEST_CASE("the MIS weights sum to one on paths through a mirror (a delta vertex: two strategies make them)")
+{
+  // eye -> z1 on the wall -> m on a mirror ball -> y0 on the lamp. Neither next-event estimation at the mirror nor a
+  // connection to it can make this path: only the camera subpath hitting the lamp, (0,4), and the light subpath
+  // y0 -> m -> z1 joined to the eye, (3,1). Their weights, read back as above, must sum to one: the running sums
+  // must carry a delta vertex's cosines and nothing else (set dVC to 0 there, or drop its cosine, and they do not).
+  const Scene scene = parseScene(
+      R"({ "camera": { "eye": [0, 0, 0], "focal": [0, 0, -1], "vfov": 60, "width": 64, "height": 48 },
+           "materials": { "wall": { "type": "diffuse", "color": [0.7, 0.7, 0.7] },
+                          "lamp": { "type": "diffuse", "color": [0, 0, 0], "emission": [5, 5, 5] },
+                          "steel": { "type": "mirror", "color": [0.9, 0.9, 0.9] } },
+           "spheres": [ { "center": [0, 0, 0], "radius": 10, "material": "wall" },
+                        { "center": [3, 5, -4], "radius": 1.5, "material": "lamp" },
+                        { "center": [-2, 1, -5], "radius": 3, "material": "steel" } ] })",
+      "mirror_room.json");
+  const Camera camera = scene.makeCamera();
+  const LightSampler lights(scene);
+  const Strategies strategies;
+  SplatSums sums(camera.width(), camera.height());
+  Splats splats(camera, sums);
+  const Material& wall = scene.materials[0];
+  const Material& steel = scene.materials[2];
+  int checked = 0;
+  double worst = 0;
+  for (std::uint64_t trial = 0; trial < 200000 && checked < 200; ++trial) {
+    Sampler sampler(11, 3, 4, trial);
+    const Context c{scene, lights, strategies, splats, sampler, INT_MAX, Real(camera.width() * camera.height())};
+    // The camera subpath: z1 on the wall, a diffuse bounce that meets the mirror at m, its reflection the lamp at y0.
+    const Vec2 film(sampler.next1D() * Real(camera.width()), sampler.next1D() * Real(camera.height()));
+    const Ray primary = camera.ray(film);
+    const std::optional<Hit> z1 = scene.intersect(primary);
+    if (!z1 || z1->primitive != 0)
+      continue;
+    const Frame f1 = Frame::fromNormal(z1->normal);
+    const Vec3 wo1 = f1.toLocal(-primary.direction);
+    const Vec3 wi1 = sampleCosineHemisphere(sampler.next2D()) * (wo1.z < 0 ? Real(-1) : Real(1));
+    const Ray toMirror = spawnRay(*z1, f1.toWorld(wi1));
+    const std::optional<Hit> m = scene.intersect(toMirror);
+    if (!m || m->primitive != 2)
+      continue;
+    const Frame fm = Frame::fromNormal(m->normal);
+    const Vec3 woM = fm.toLocal(-toMirror.direction);
+    const std::optional<BsdfSample> reflect = bsdfSample(steel, woM, sampler.next2D(), sampler.next1D());
+    REQUIRE(reflect);
+    REQUIRE(reflect->specular);
+    const Ray toLamp = spawnRay(*m, fm.toWorld(reflect->wi));
+    const std::optional<Hit> y0 = scene.intersect(toLamp);
+    if (!y0 || y0->primitive != 1)
+      continue;
+
+    // (0,4): the camera subpath's running sums through z1 and the mirror, then the lamp hit.
+    SubpathState camera4;
+    camera4.dVCM = mis(c.lightPaths / primaryRayPdf(camera, -glm::dot(camera.basis().w, primary.direction)));
+    arrive(camera4, z1->t, std::abs(glm::dot(z1->normal, primary.direction)));
+    leave(camera4, diffuseSample(wall, wo1, wi1), bsdfPdf(wall, wi1, wo1));
+    arrive(camera4, m->t, std::abs(woM.z));
+    leave(camera4, *reflect, reflect->pdf);
+    const Real cosY0 = std::abs(glm::dot(y0->normal, toLamp.direction));
+    arrive(camera4, y0->t, cosY0);
+    const double w04 = weightHitLight(c, camera4, *y0, m->point, cosY0);
+
+    // (3,1): the light subpath y0 -> m -> z1 as traceLightSubpath makes it, z1 joined to the eye.
+    const Vec3 fromLamp = -toLamp.direction;
+    const Real emission = emissionPdf(c, 1, y0->point, fromLamp);
+    const Real cosM = std::abs(glm::dot(m->normal, fromLamp));
+    SubpathState light;
+    light.dVC = mis(cosY0 / emission) / mis(cosM);
+    light.dVCM = mis(lights.pdf(m->point, 1, y0->point) * cosY0 / (emission * cosM));
+    const Vec3 woLight = fm.toLocal(-fromLamp); // towards the lamp, where the light path came from
+    const std::optional<BsdfSample> back = bsdfSample(steel, woLight, sampler.next2D(), sampler.next1D());
+    REQUIRE(back);
+    leave(light, *back, back->pdf);
+    const Vec3 towardsZ1 = fm.toWorld(back->wi);
+    REQUIRE(glm::dot(towardsZ1, -toMirror.direction) == Approx(1).margin(1e-9)); // the mirror sends it back to z1
+    arrive(light, m->t, std::abs(glm::dot(z1->normal, towardsZ1)));
+    light.beta = Color(1);
+    LightVertex y2{*z1, unit(m->point - z1->point), light, 3};
+    connectToCamera(c, y2);
+    const std::optional<Vec2> pixel = camera.project(z1->point);
+    REQUIRE(pixel);
+    const Color splat =
+        sums.take(std::size_t(int(pixel->y)) * std::size_t(camera.width()) + std::size_t(int(pixel->x)));
+    const Vec3 toEye = unit(camera.eye() - z1->point);
+    const Real cameraPdfA = primaryRayPdf(camera, glm::dot(camera.basis().w, toEye)) *
+                            std::abs(glm::dot(z1->normal, toEye)) /
+                            glm::dot(camera.eye() - z1->point, camera.eye() - z1->point);
+    const double w31 = splat.r / (bsdfEval(wall, f1.toLocal(toEye), f1.toLocal(y2.toPrevious)).r * cameraPdfA /
+                                  c.lightPaths);
+
+    INFO("trial " << trial << ": " << w04 << " + " << w31);
+    CHECK(w04 + w31 == Approx(1).epsilon(1e-6));
+    CHECK(std::min(w04, w31) > 0);
+    worst = std::max(worst, std::abs(w04 + w31 - 1));
+    ++checked;
+  }
+  std::cout << "MIS weights of " << checked << " paths through a mirror: largest |sum - 1| = " << worst << "\n";
   CHECK(checked >= 50);
 }

@@ -36,6 +36,34 @@ ErrorMetrics measureError(const Image& image, const Image& reference, const Imag
   return m;
 }
 
+Image cellSums(const Image& image, int cell)
+{
+  if (cell < 1)
+    throw std::invalid_argument("cellSums: a cell of " + std::to_string(cell) + " pixels");
+  if (cell == 1)
+    return image;
+  Image out((image.width + cell - 1) / cell, (image.height + cell - 1) / cell);
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      for (int c = 0; c < 3; ++c)
+        out.at(x / cell, y / cell, c) += image.at(x, y, c);
+  return out;
+}
+
+double relativeVariancePerSample(const Image& variance, int spp, const Image& reference)
+{
+  if (variance.width != reference.width || variance.height != reference.height)
+    throw std::invalid_argument("relativeVariancePerSample: the variance and the reference differ in size");
+  if (reference.pixels.empty())
+    return 0;
+  double sum = 0;
+  for (std::size_t i = 0; i < reference.pixels.size(); ++i) {
+    const double r = reference.pixels[i];
+    sum += double(variance.pixels[i]) * spp / (r * r + 0.01);
+  }
+  return sum / double(reference.pixels.size());
+}
+
 LineFit fitLogLog(const std::vector<double>& x, const std::vector<double>& y)
 {
   if (x.size() != y.size())
@@ -77,7 +105,8 @@ std::string slopeVerdict(double slope)
   if (slopeAcceptable(slope))
     return "within ±0.15 of −1";
   if (slope > kIdealSlope)
-    return "**FLAGGED**: shallower than 1/N (an error floor, as a bias gives)";
+    return "**FLAGGED**: shallower than 1/N (an error floor, as a bias gives; or a heavy tail: rare, bright samples "
+           "that the small budgets mostly miss raise the larger budgets' error)";
   return "**FLAGGED**: steeper than 1/N (as stratified pixel positions give where edges carry the error; a bias "
          "would make it shallower)";
 }
@@ -528,9 +557,22 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
            << (k.checkChapter == k.referenceChapter ? " with another seed (a self-check only: no second estimator "
                                                       "was available)"
                                                     : "")
-           << ": " << formatNumber(k.failedShare * 100, 3) << "% of channels with |z| > " << formatNumber(k.critical, 3)
+           << (k.cell > 1 ? ", in cells of " + std::to_string(k.cell) + "×" + std::to_string(k.cell) + " pixels"
+                          : std::string())
+           << ": " << formatNumber(k.failedShare * 100, 3) << "% of " << (k.cell > 1 ? "cell channels" : "channels")
+           << " with |z| > " << formatNumber(k.critical, 3)
            << " (allowed " << formatNumber(k.maxFailedShare * 100, 3) << "%), total z = " << formatNumber(k.totalZ, 3)
-           << " → **" << (k.passed ? "trusted" : "NOT TRUSTED") << "**.\n\n";
+           << " → **" << (k.passed ? "trusted" : "NOT TRUSTED") << "**.";
+        if (k.referenceVariance > 0 && k.checkVariance > 0 && k.checkChapter != k.referenceChapter) {
+          md << " Relative variance per sample (each render's own estimate): " << k.referenceChapter << " "
+             << formatNumber(k.referenceVariance, 3) << ", " << k.checkChapter << " "
+             << formatNumber(k.checkVariance, 3);
+          if (k.checkVariance < k.referenceVariance)
+            md << " (**the second estimator has less: it should render the reference**, unless its own estimate "
+                  "misses rare, bright samples)";
+          md << ".";
+        }
+        md << "\n\n";
       }
 
     // Equal time and efficiency, double build, ladder thread count.

@@ -32,6 +32,24 @@ struct ErrorMetrics {
 /// @throws std::invalid_argument when the three images differ in size.
 ErrorMetrics measureError(const Image& image, const Image& reference, const Image& referenceVariance);
 
+/// The sums of `image` over cells of `cell` × `cell` pixels (the last cells of a row or column may be smaller), one
+/// pixel per cell. Summing both a render and its per-pixel variance of the mean gives each cell's total and the
+/// variance of that total, so a z-test of cell sums compares cell means (docs/benchmarks.md: the reference check).
+/// @param image the image (a mean or a variance of the mean per pixel).
+/// @param cell  the cell's side in pixels, ≥ 1 (1 returns the image).
+/// @throws std::invalid_argument when `cell` < 1.
+Image cellSums(const Image& image, int cell);
+
+/// The mean over pixels and channels of variance · spp / (reference² + 0.01): an estimator's relative variance per
+/// sample, from a render of `spp` samples per pixel whose variance of the mean is `variance`. The estimator with the
+/// least renders the reference (docs/benchmarks.md). Its own estimate: an estimator whose rare, bright samples its
+/// render missed shows less than it has.
+/// @param variance  the render's variance of each pixel mean.
+/// @param spp       the render's samples per pixel, ≥ 1.
+/// @param reference the reference (the relative measure's denominator), the size of `variance`.
+/// @throws std::invalid_argument when the sizes differ.
+double relativeVariancePerSample(const Image& variance, int spp, const Image& reference);
+
 /// A straight line y = intercept + slope · x fitted by least squares.
 struct LineFit {
   double slope = 0;     ///< dy/dx.
@@ -51,7 +69,8 @@ inline constexpr double kSlopeTolerance = 0.15;
 /// True when `slope` lies within kSlopeTolerance of kIdealSlope.
 bool slopeAcceptable(double slope);
 /// The summary's verdict on a slope: "within ±0.15 of −1", or "**FLAGGED**" with the direction and what it points
-/// to: shallower than 1/N is an error floor, as a bias gives; steeper is what stratified pixel positions give
+/// to: shallower than 1/N is an error floor, as a bias gives, or a heavy tail (rare, bright samples that small
+/// budgets mostly miss, so that their error looks smaller than it is); steeper is what stratified pixel positions give
 /// where edges carry the error (a scene of sky and silhouettes), which no bias does.
 std::string slopeVerdict(double slope);
 
@@ -219,8 +238,11 @@ struct ReferenceCheck {
   std::string checkChapter;   ///< The second estimator (may equal referenceChapter: a self-check only).
   int referenceSpp = 0;       ///< Samples per pixel of the reference.
   int checkSpp = 0;           ///< Samples per pixel of the second render.
+  int cell = 1;               ///< Compared in cells of cell × cell pixels (1: per pixel).
+  double referenceVariance = 0; ///< The reference estimator's relativeVariancePerSample().
+  double checkVariance = 0;   ///< The second estimator's relativeVariancePerSample() (0 when not measured).
   double critical = 0;        ///< |z| above which a channel fails.
-  double failedShare = 0;     ///< Share of channels over `critical`.
+  double failedShare = 0;     ///< Share of (cell) channels over `critical`.
   double maxFailedShare = 0;  ///< The largest share allowed.
   double totalZ = 0;          ///< z of the difference of the image means.
   bool passed = false;        ///< |totalZ| ≤ critical and failedShare ≤ maxFailedShare.

@@ -40,6 +40,9 @@ struct Plan {
   int seeds = 3;
   int referenceSpp = 4096; // 32× the ladder's top: its own noise is about 3% of any measured error
   int checkSpp = 512;
+  // The check compares cells of checkCell × checkCell pixels (1: every pixel). Larger cells pool more of the second
+  // estimator's samples, for a scene where its per-pixel means are skewed (docs/benchmarks.md: the reference).
+  int checkCell = 1;
   int threadsSpp = 16;   // the spp budget of the 1-thread runs and the float build's spp runs
   int threads = 0;       // the ladder's thread count; 0: every core
   // Adaptive sampling: --adaptive E at each threshold, at most adaptiveMaxSpp samples a pixel (0: the spp ladder's
@@ -69,9 +72,10 @@ Plan fullPlan()
   return p;
 }
 
-// The significance of the reference check: a channel fails at |z| > 3.29 (two-sided 0.001); the reference is
-// trusted when the total z is within it and no more than 1% of channels fail (10× the expected 0.1%: per-pixel
-// variance estimates of path tracers are themselves noisy where rare bright paths are).
+// The significance of the reference check: a channel (of a pixel, or of a cell of pixels) fails at |z| > 3.29
+// (two-sided 0.001); the reference is trusted when the total z is within it and no more than 1% of channels fail
+// (10× the expected 0.1%: per-pixel variance estimates of path tracers are themselves noisy where rare bright paths
+// are).
 constexpr double kCritical = 3.29;
 constexpr double kMaxFailedShare = 0.01;
 constexpr double kVarianceFloor = 1e-12;
@@ -127,6 +131,8 @@ std::vector<std::string> splitList(const std::string& s)
   --seeds N             seeds per budget
   --reference-spp N     spp of the reference
   --check-spp N         spp of the second estimator's render that checks it
+  --check-cell N        compare the reference and the second render in cells of NxN pixels (default 1: per
+                        pixel), where the second estimator's per-pixel means are skewed (rare, bright paths)
   --threads-spp N       spp budget of the 1-thread and float runs
   --threads N           the ladder's thread count (default: every core)
   --adaptive A,B,...    adaptive sampling's thresholds (--adaptive E of the chapters; quick 0.2,0.1,0.05,
@@ -196,7 +202,8 @@ Options parseOptions(int argc, char** argv)
       usage("");
     else if (a == "--bin" || a == "--float-bin" || a == "--chapters" || a == "--scenes" || a == "--out" ||
              a == "--references" || a == "--size" || a == "--spp" || a == "--times" || a == "--seeds" ||
-             a == "--reference-spp" || a == "--check-spp" || a == "--threads-spp" || a == "--threads" ||
+             a == "--reference-spp" || a == "--check-spp" || a == "--check-cell" || a == "--threads-spp" ||
+             a == "--threads" ||
              a == "--replot" || a == "--adaptive" || a == "--adaptive-max-spp")
       later.emplace_back(a, value());
     else
@@ -230,6 +237,8 @@ Options parseOptions(int argc, char** argv)
       o.plan.referenceSpp = intList(v)[0];
     else if (a == "--check-spp")
       o.plan.checkSpp = intList(v)[0];
+    else if (a == "--check-cell")
+      o.plan.checkCell = intList(v)[0];
     else if (a == "--threads-spp")
       o.plan.threadsSpp = intList(v)[0];
     else if (a == "--threads")
@@ -447,7 +456,10 @@ Reference makeReference(const fs::path& scene, const fs::path& best, const fs::p
   RunResult check = cachedRender(checkKey, plan, cacheDir, log, rendered);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  const ZTestResult z = zTestImages(check.image, check.variance, ref.image, ref.variance, kCritical, kVarianceFloor);
+  // Per cell: the sums of the means and of their variances over each cell give z of the cell's mean.
+  const int cell = plan.checkCell;
+  const ZTestResult z = zTestImages(cellSums(check.image, cell), cellSums(check.variance, cell),
+                                    cellSums(ref.image, cell), cellSums(ref.variance, cell), kCritical, kVarianceFloor);
   Reference out{ref.image, ref.variance, {}};
   ReferenceCheck& c = out.check;
   c.scene = scene.filename().string();
@@ -455,18 +467,24 @@ Reference makeReference(const fs::path& scene, const fs::path& best, const fs::p
   c.checkChapter = second.filename().string();
   c.referenceSpp = plan.referenceSpp;
   c.checkSpp = plan.checkSpp;
+  c.cell = cell;
+  c.referenceVariance = relativeVariancePerSample(ref.variance, plan.referenceSpp, ref.image);
+  c.checkVariance = relativeVariancePerSample(check.variance, plan.checkSpp, ref.image);
   c.critical = kCritical;
   c.failedShare = z.failedShare;
   c.maxFailedShare = kMaxFailedShare;
   c.totalZ = z.totalZ;
   c.passed = std::abs(z.totalZ) <= kCritical && z.failedShare <= kMaxFailedShare;
   c.hash = refHash;
-  std::cout << " (" << formatNumber(seconds, 3) << " s): " << formatNumber(z.failedShare * 100, 3)
-            << "% of channels over |z| " << kCritical << ", total z " << formatNumber(z.totalZ, 3) << " -> "
+  std::cout << " (" << formatNumber(seconds, 3) << " s): " << formatNumber(z.failedShare * 100, 3) << "% of "
+            << (cell > 1 ? std::to_string(cell) + "x" + std::to_string(cell) + " cells' " : std::string())
+            << "channels over |z| " << kCritical << ", total z " << formatNumber(z.totalZ, 3) << " -> "
             << (c.passed ? "trusted" : "NOT TRUSTED") << "\n";
   nlohmann::json j = {{"reference", refHash},  {"check", checkHash},         {"failed_share", z.failedShare},
                       {"total_z", z.totalZ},   {"critical", kCritical},      {"passed", c.passed},
-                      {"mean_z", z.meanZ},     {"max_failed_share", kMaxFailedShare}};
+                      {"mean_z", z.meanZ},     {"max_failed_share", kMaxFailedShare}, {"cell", cell},
+                      {"reference_variance_per_sample", c.referenceVariance},
+                      {"check_variance_per_sample", c.checkVariance}};
   std::ofstream(cacheDir / ("check-" + refHash + "-" + checkHash + ".json")) << j.dump(2) << "\n";
   if (ref.stats.badSamples || check.stats.badSamples)
     std::cout << "  note: " << ref.stats.badSamples + check.stats.badSamples << " bad samples in the reference renders\n";
@@ -665,7 +683,8 @@ int main(int argc, char** argv)
         " s; " + std::to_string(plan.seeds) + " seeds each; " + std::to_string(threads) +
         " threads (thread scaling: 1 against " + std::to_string(threads) + " at " + std::to_string(plan.threadsSpp) +
         " spp); reference " + std::to_string(plan.referenceSpp) + " spp, check " + std::to_string(plan.checkSpp) +
-        " spp; adaptive " +
+        " spp" + (plan.checkCell > 1 ? " in cells of " + std::to_string(plan.checkCell) + "×" +
+                          std::to_string(plan.checkCell) + " pixels" : std::string()) + "; adaptive " +
         [&] {
           std::string s;
           for (double e : plan.adaptiveThresholds)
@@ -823,7 +842,7 @@ int main(int argc, char** argv)
       if (!s.acceptable)
         std::cout << "raylife_bench: FLAGGED: " << s.scene << " " << s.chapter << " has slope "
                   << formatNumber(s.fit.slope, 4) << ", outside −1 ± " << kSlopeTolerance
-                  << (s.fit.slope > kIdealSlope ? " (shallower: an error floor, as a bias gives)"
+                  << (s.fit.slope > kIdealSlope ? " (shallower: an error floor, as a bias gives, or a heavy tail)"
                                                 : " (steeper: as stratified pixel positions give on edges)")
                   << "\n";
     for (const std::string& n : context.notes)
