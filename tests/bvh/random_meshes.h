@@ -73,8 +73,11 @@ inline TestMesh<Real> triangleSoup(Random& random, int n, Real extent)
     const Vec3 a = random.inBox(-extent, extent);
     const Real size = std::pow(Real(10), random.uniform(-2, 1));
     Vec3 b = a + random.direction() * size, c = a + random.direction() * size;
+    // A sliver: its width a millionth of its length in double; in float that is below the coordinates' precision
+    // (the triangle comes out degenerate, and a scene of it alone is never hit), so there a ten-thousandth.
+    constexpr Real kSliver = sizeof(Real) == 4 ? Real(1e-4) : Real(1e-6);
     if (k % 10 == 0)
-      c = a + (b - a) * random.uniform(0, 1) + random.direction() * (size * Real(1e-6)); // a sliver
+      c = a + (b - a) * random.uniform(0, 1) + random.direction() * (size * kSliver);
     const auto first = std::uint32_t(m.vertices.size());
     m.vertices.insert(m.vertices.end(), {a, b, c});
     m.triangles.push_back({first, first + 1, first + 2});

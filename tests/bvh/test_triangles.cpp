@@ -70,7 +70,7 @@ Ray triangleRay(Random& random, const Mixed& s, Real extent)
     ray.origin = p[random.index(3)];
     ray.origin[axis] = random.uniform(-extent, extent);
     target = ray.origin;
-    target[axis] += random.index(2) ? 1 : -1;
+    target[axis] += random.index(2) ? Real(1) : Real(-1);
     break;
   }
   }
