@@ -162,6 +162,8 @@ struct BvhTracedOcclusion {
   BvhWork work;          ///< Nodes visited and primitives tested until the answer was known.
 };
 
+template <class V> struct BvhWalk; // one ray's walk through the tree (bvh.cpp)
+
 /// A bounding volume hierarchy over a fixed set of spheres and triangles. Immutable after construction, so any
 /// number of threads may query it at once.
 class Bvh {
@@ -190,6 +192,12 @@ public:
   /// True when any primitive is hit inside [ray.tmin, ray.tmax): the shadow-ray query. Stops at the first one
   /// found, so it is cheaper than intersect; it is true exactly when intersect finds a hit. ray.tmin ≥ 0.
   bool occluded(const Ray& ray) const;
+
+  /// intersect for each ray of `rays` (out[i] the answer for rays[i]; out.size() ≥ rays.size()), the same answers
+  /// bit for bit, with the walks of `inFlight` rays (1, 2 or 4) taken a node at a time in turn: while one ray
+  /// waits for its box test, the processor can work on another's. An experiment for tools/bvh_bench (how much of
+  /// a ray's time is waiting); the chapters trace one ray at a time.
+  void intersectInterleaved(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out, int inFlight) const;
 
   /// intersect, also counting the work (for heat maps; the plain query pays nothing for the counting).
   BvhTracedHit intersectWithWork(const Ray& ray) const;
@@ -251,14 +259,26 @@ private:
     int primitive; // −1: nothing hit
     BvhWork work;  // zero unless counted
   };
-  // The traversal, with V the lanes of the box test (four or eight floats); the eight-lane one built for AVX2;
-  // and the choice between them.
+  // The tree's walk, with V the lanes of the box test (four or eight floats).
   // `found`: what the primitives outside the tree gave (the nearest hit so far, or the ray's tmax and −1).
-  template <bool kAnyHit, bool kCountWork, class V> Traversal traverse(const Ray& ray, Traversal found) const;
-  template <bool kAnyHit, bool kCountWork> Traversal traverseEight(const Ray& ray, Traversal found) const;
-  // The primitives outside the tree, one after the other (the nearest hit, or any hit), then the tree.
-  template <bool kAnyHit, bool kCountWork> Traversal testOutside(const Ray& ray) const;
+  // (Answers by reference throughout: a Traversal passed and returned by value went through memory, written a field at
+  // a time and read whole, and the processor cannot forward such stores to the load: a stall on every query.)
+  template <bool kAnyHit, bool kCountWork, class V> void traverse(const Ray& ray, Traversal& found) const;
+  // The primitives outside the tree, one after the other (the nearest hit, or any hit), into `found`, which holds
+  // the ray's tmax and −1 on the way in.
+  template <bool kAnyHit, bool kCountWork> void testOutside(const Ray& ray, Traversal& found) const;
+  // The whole query: those primitives, then the tree; the eight-lane one built for AVX2; and the choice between
+  // them.
+  template <bool kAnyHit, bool kCountWork, class V> Traversal query(const Ray& ray) const;
+  template <bool kAnyHit, bool kCountWork> Traversal queryEight(const Ray& ray) const;
   template <bool kAnyHit, bool kCountWork> Traversal dispatch(const Ray& ray) const;
+  // One step of a walk: visits walk.current; false when the walk is over, its answer in `found`.
+  template <bool kAnyHit, bool kCountWork, class V>
+  bool visit(const Ray& ray, BvhWalk<V>& walk, Traversal& found) const;
+  // intersectInterleaved with `kInFlight` walks, with V the lanes of the box test; the eight-lane one for AVX2.
+  template <int kInFlight, class V>
+  void interleave(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
+  template <int kInFlight> void interleaveEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   // The binary nodes a wide node made from binary interior `node` takes as its children (see collapse).
   int wideChildren(std::uint32_t node, std::uint32_t (&children)[BvhWideNode::kWidth]) const;
   std::size_t wideNodeCount(std::uint32_t node) const; // the wide nodes collapse(node) makes

@@ -576,3 +576,42 @@ TEST_CASE("huge primitives stay out of the tree - walls, a lamp, a ground sphere
     REQUIRE(inside.occluded(ray) == outside.occluded(ray));
   }
 }
+
+TEST_CASE("rays walked side by side (bvh_bench's experiment) get intersect's answers bit for bit")
+{
+  Random random(41);
+  BvhBuildOptions four;
+  four.eightAtOnce = false;
+  const std::vector<Sphere> scenes[] = {uniformScene(random, 300), groundScene(random, 200), roomScene(random, 500),
+                                        clusteredScene(random, 400), {Sphere{Vec3(0), 1, 0}}};
+  for (const std::vector<Sphere>& spheres : scenes)
+    for (const Bvh& bvh : {Bvh(spheres), Bvh(spheres, four)}) {
+      std::vector<Ray> rays;
+      for (int i = 0; i < 20000; ++i)
+        rays.push_back(randomRay(random, spheres, 150));
+      for (const Ray& ray : nonFiniteRays(random, 12))
+        rays.push_back(ray);
+      for (const int inFlight : {1, 2, 4}) {
+        INFO(spheres.size() << " spheres, " << inFlight << " in flight, "
+                            << (bvh.eightAtOnce() ? "eight" : "four") << " boxes at a time");
+        std::vector<std::optional<BvhHit>> out(rays.size(), BvhHit{-1, -7}); // not what any query answers
+        bvh.intersectInterleaved(rays, out, inFlight);
+        std::size_t differ = 0, hits = 0;
+        for (std::size_t i = 0; i < rays.size(); ++i) {
+          const std::optional<BvhHit> one = bvh.intersect(rays[i]);
+          hits += one.has_value();
+          differ += one.has_value() != out[i].has_value() ||
+                    (one && (one->primitive != out[i]->primitive || std::memcmp(&one->t, &out[i]->t, sizeof(Real))));
+        }
+        CHECK(differ == 0);
+        CHECK(hits > rays.size() / 20);
+      }
+    }
+  // An empty tree and a short answer array.
+  std::vector<std::optional<BvhHit>> out(3, BvhHit{1, 1});
+  const std::vector<Ray> rays(3, Ray{});
+  Bvh().intersectInterleaved(rays, out, 2);
+  CHECK_FALSE((out[0] || out[1] || out[2]));
+  CHECK_THROWS_AS(Bvh().intersectInterleaved(rays, std::span(out).first(2), 2), std::invalid_argument);
+  CHECK_THROWS_AS(Bvh().intersectInterleaved(rays, out, 3), std::invalid_argument);
+}

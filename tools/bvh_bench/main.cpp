@@ -8,6 +8,10 @@
 //   bvh_bench crossover [SCENE.json] [--repeat R]
 //       The same for the N spheres nearest the focal point (the ground sphere always among them), N = 1 … 64:
 //       where the tree starts to pay (Scene's kFlatListMaxPrimitives).
+//   bvh_bench interleave [SCENE.json] [--repeat R]
+//       Mrays/s of the closest-hit query through the tree one ray at a time, and with the walks of 2 and 4 rays
+//       taken a node at a time in turn (Bvh::intersectInterleaved), on camera rays and on diffuse bounce rays from
+//       where they hit: how much of a ray's time is spent waiting, which another ray's work can fill.
 //   bvh_bench heatmap [SCENE.json] --split sah|midpoint -o FILE.png|FILE.pfm [--width W] [--height H]
 //       The work per pixel (camera ray and shadow rays, as in chapter 9's right image) with a tree built by the
 //       given split; prints the tree's SAH cost and the mean work per pixel.
@@ -16,6 +20,9 @@
 // machine disturbs less than wall-clock time; still, compare ratios measured in one run.
 #include "render/heat_map.h"
 #include "render/image_io.h"
+#include "core/frame.h"
+#include "core/rng.h"
+#include "core/sampling.h"
 #include "render/runner.h"
 #include "scene/scene.h"
 #include "shading/shading.h"
@@ -147,10 +154,62 @@ Speeds measure(const Searches& s, const Rays& rays, int repeat)
   return Speeds{rate(0, 0), rate(0, 1), rate(0, 2), rate(1, 0), rate(1, 1), rate(1, 2)};
 }
 
+// One diffuse bounce from each camera hit: a cosine-distributed direction about the surface's facing normal, as
+// chapter 6's first bounce off a diffuse surface draws it (random directions, so incoherent rays).
+std::vector<Ray> bounceRays(const Scene& scene, const std::vector<Ray>& camera)
+{
+  std::vector<Ray> rays;
+  Sampler sampler(1, 0, 0, 0);
+  for (const Ray& ray : camera)
+    if (const std::optional<Hit> hit = scene.intersect(ray)) {
+      const Frame frame = Frame::fromNormal(facingNormal(*hit, ray.direction));
+      const Vec2 u = sampler.next2D();
+      rays.push_back(spawnRay(*hit, frame.toWorld(sampleCosineHemisphere(u))));
+    }
+  return rays;
+}
+
+// The interleave mode: Mrays/s one ray at a time (intersect) and with 1, 2 and 4 walks in flight, best of `repeat`
+// interleaved runs of several passes each; every answer checked against intersect's.
+void measureInterleaving(const Scene& tree, const std::vector<Ray>& rays, const char* what, int repeat)
+{
+  const Bvh& bvh = tree.accelerator;
+  std::vector<std::optional<BvhHit>> one(rays.size()), out(rays.size());
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    one[i] = bvh.intersect(rays[i]);
+  const int passes = std::max(1, int(2e6 / double(std::max<std::size_t>(rays.size(), 1))));
+  double best[4] = {1e30, 1e30, 1e30, 1e30}; // one at a time, then 1, 2 and 4 in flight
+  const int inFlight[4] = {0, 1, 2, 4};
+  for (int r = 0; r < repeat; ++r)
+    for (int k = 0; k < 4; ++k) {
+      const double start = threadSeconds();
+      for (int p = 0; p < passes; ++p) {
+        if (inFlight[k] == 0)
+          for (std::size_t i = 0; i < rays.size(); ++i)
+            out[i] = bvh.intersect(rays[i]);
+        else
+          bvh.intersectInterleaved(rays, out, inFlight[k]);
+      }
+      best[k] = std::min(best[k], (threadSeconds() - start) / passes);
+      for (std::size_t i = 0; i < rays.size(); ++i)
+        if (out[i].has_value() != one[i].has_value() ||
+            (out[i] && (out[i]->primitive != one[i]->primitive || out[i]->t != one[i]->t))) {
+          std::fprintf(stderr, "bvh_bench: the interleaved walk disagrees with intersect on ray %zu\n", i);
+          std::exit(1);
+        }
+    }
+  const double n = double(rays.size()) / 1e6;
+  std::printf("%-13s %8zu rays: one at a time %6.2f Mrays/s; in flight 1: %6.2f, 2: %6.2f, 4: %6.2f "
+              "(x%.2f, x%.2f, x%.2f the one at a time)\n",
+              what, rays.size(), n / best[0], n / best[1], n / best[2], n / best[3], best[0] / best[1],
+              best[0] / best[2], best[0] / best[3]);
+}
+
 int usage()
 {
   std::cerr << "usage: bvh_bench speed [SCENE.json] [--repeat R]\n"
                "       bvh_bench crossover [SCENE.json] [--repeat R]\n"
+               "       bvh_bench interleave [SCENE.json] [--repeat R]\n"
                "       bvh_bench heatmap [SCENE.json] --split sah|midpoint -o FILE [--width W] [--height H]\n";
   return 2;
 }
@@ -238,6 +297,15 @@ int main(int argc, char** argv)
                     s.bvhClosest, s.bvhClosest / s.lanesClosest, s.flatAny, s.lanesAny, s.bvhAny,
                     s.bvhAny / s.lanesAny);
       }
+    } else if (mode == "interleave") {
+      Scene tree = scene;
+      tree.accelerator = Bvh(tree.spheres); // the tree whatever the count (as "speed" measures it)
+      const Rays rays = makeRays(tree, width, height);
+      const std::vector<Ray> bounces = bounceRays(tree, rays.camera);
+      std::printf("%s: %zu spheres, one thread, best of %d, boxes tested %s at a time\n", scenePath.c_str(),
+                  scene.spheres.size(), repeat, tree.accelerator.eightAtOnce() ? "eight" : "four");
+      measureInterleaving(tree, rays.camera, "camera rays", repeat);
+      measureInterleaving(tree, bounces, "bounce rays", repeat);
     } else if (mode == "heatmap") {
       if (output.empty() || (splitName != "sah" && splitName != "midpoint"))
         return usage();
