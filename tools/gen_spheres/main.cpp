@@ -118,16 +118,23 @@ int main(int argc, char** argv)
   palette.push_back({R"({ "type": "diffuse", "color": [0.4, 0.2, 0.1] })"});                  // 2: brown
   palette.push_back({diffuse ? R"({ "type": "diffuse", "color": [0.7, 0.6, 0.5] })"
                              : R"({ "type": "mirror", "color": [0.7, 0.6, 0.5] })"});               // 3: mirror
+  // A colour's channels are drawn blue first, one statement after another: scenes/random_spheres.json and
+  // random_diffuse.json were written by GCC, which evaluated color()'s three arguments right to left; clang goes
+  // left to right, so with the draws as arguments the same N and SEED gave another file. (The two factors of an
+  // albedo may come in either order: their product is the same.)
+  auto randomColor = [](auto draw) {
+    const double b = draw(), g = draw(), r = draw();
+    return color(r, g, b);
+  };
   const int firstDiffuse = int(palette.size());
   for (int i = 0; i < 16; ++i)
     palette.push_back({"{ \"type\": \"diffuse\", \"color\": " +
-                       color(random.uniform() * random.uniform(), random.uniform() * random.uniform(),
-                             random.uniform() * random.uniform()) + " }"});
+                       randomColor([&random] { return random.uniform() * random.uniform(); }) + " }"});
   const int firstMetal = int(palette.size());
   for (int i = 0; i < 6; ++i) {
     char roughness[32];
     std::snprintf(roughness, sizeof roughness, "%.3f", random.uniform(0.02, 0.5));
-    const std::string rgb = color(random.uniform(0.5, 1), random.uniform(0.5, 1), random.uniform(0.5, 1));
+    const std::string rgb = randomColor([&random] { return random.uniform(0.5, 1); });
     palette.push_back({diffuse ? "{ \"type\": \"diffuse\", \"color\": " + rgb + " }"
                                : "{ \"type\": \"glossy\", \"color\": " + rgb + ", \"roughness\": " + roughness + " }"});
   }

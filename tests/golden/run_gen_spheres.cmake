@@ -1,0 +1,17 @@
+# Runs gen_spheres (GEN) as the files of scenes/ (SCENES) say they were written and requires the same bytes: the
+# same N and SEED give the same file whatever compiler built gen_spheres (its random draws are sequenced).
+file(REMOVE_RECURSE ${WORK})
+file(MAKE_DIRECTORY ${WORK})
+foreach(case "random_spheres.json|500;1" "random_diffuse.json|500;1;--diffuse")
+  string(REPLACE "|" ";" case "${case}")
+  list(POP_FRONT case file)
+  execute_process(COMMAND ${GEN} ${case} OUTPUT_FILE ${WORK}/${file} RESULT_VARIABLE status)
+  if(NOT status EQUAL 0)
+    message(FATAL_ERROR "gen_spheres ${case} failed with status ${status}")
+  endif()
+  execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${WORK}/${file} ${SCENES}/${file} RESULT_VARIABLE same)
+  if(NOT same EQUAL 0)
+    string(REPLACE ";" " " args "${case}")
+    message(FATAL_ERROR "gen_spheres ${args} does not write scenes/${file} (see ${WORK}/${file})")
+  endif()
+endforeach()
