@@ -100,9 +100,10 @@ int LightSampler::cellOf(const Vec3& ref) const
   if (cellLearned_.empty())
     return -1;
   const Vec3 g = (ref - gridMin_) * gridScale_;
+  // Clamped into the grid (a NaN to 0: max(0, NaN) is 0 as std::max orders its arguments), without branches.
   glm::ivec3 c;
   for (int a = 0; a < 3; ++a)
-    c[a] = g[a] >= 0 && g[a] < Real(gridSize_[a]) ? int(g[a]) : (g[a] >= Real(gridSize_[a]) ? gridSize_[a] - 1 : 0);
+    c[a] = int(std::min(Real(gridSize_[a] - 1), std::max(Real(0), g[a])));
   const int cell = (c.z * gridSize_.y + c.y) * gridSize_.x + c.x;
   return cellLearned_[std::size_t(cell)] ? cell : -1;
 }
