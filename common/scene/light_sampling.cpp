@@ -78,6 +78,9 @@ std::pair<std::size_t, Real> LightSampler::choose(Real uLight, int cell) const
 {
   // Choose a light by inverting the cumulative distribution: of power, or of the guide's cell.
   const std::size_t n = cdf_.size();
+  if (n == 1)
+    return {0, 1}; // what the search below gives (the last entry is exactly 1), without it
+
   const auto cdf = cell < 0 ? cdf_.begin() : cellCdf_.begin() + std::ptrdiff_t(std::size_t(cell) * n);
   const std::size_t k = std::size_t(std::upper_bound(cdf, cdf + std::ptrdiff_t(n), uLight) - cdf);
   const std::size_t chosen = std::min(k, n - 1);
@@ -97,9 +100,10 @@ int LightSampler::cellOf(const Vec3& ref) const
   if (cellLearned_.empty())
     return -1;
   const Vec3 g = (ref - gridMin_) * gridScale_;
+  // Clamped into the grid (a NaN to 0: max(0, NaN) is 0 as std::max orders its arguments), without branches.
   glm::ivec3 c;
   for (int a = 0; a < 3; ++a)
-    c[a] = g[a] >= 0 && g[a] < Real(gridSize_[a]) ? int(g[a]) : (g[a] >= Real(gridSize_[a]) ? gridSize_[a] - 1 : 0);
+    c[a] = int(std::min(Real(gridSize_[a] - 1), std::max(Real(0), g[a])));
   const int cell = (c.z * gridSize_.y + c.y) * gridSize_.x + c.x;
   return cellLearned_[std::size_t(cell)] ? cell : -1;
 }
@@ -291,6 +295,7 @@ void LightSampler::learn(const LightGuiding& guiding)
     Vec3 wo; // towards where the path came from, world space
   };
   std::vector<Point> points;
+  points.reserve(std::size_t(std::max(1, guiding.paths)) * std::size_t(std::max(1, guiding.bounces)));
   const Camera camera = scene_.makeCamera();
   for (int p = 0; p < std::max(1, guiding.paths); ++p) {
     Sampler sampler(guiding.seed, p, 0, 0);
@@ -338,15 +343,15 @@ void LightSampler::learn(const LightGuiding& guiding)
 
   // 3. Samples of every light at every point, as the unguided sampler draws them, each with its shadow ray: per
   // cell and light, how many there were, how many were of use, and where in a sphere's cone those fell.
-  // In two rounds: first a quarter of the samples everywhere, then the rest only for the cells and lights that
-  // the first round found partly hidden (a light seen whole needs no guide, so a scene like the Cornell box costs
-  // a quarter of the pre-pass). The shadow rays run on every core (each point has its own random numbers and its
-  // own slots for the answers), then the answers are gathered in point order, so what is learned does not depend
-  // on the threads.
-  const int perPoint = std::max(1, guiding.samplesPerPoint), firstRound = std::max(1, perPoint / 4);
-  const std::size_t slots = n * std::size_t(perPoint);
-  std::vector<Vec2> drawnU(points.size() * slots);
-  std::vector<char> wasUseful(points.size() * slots, 0), taken(points.size() * slots, 0);
+  // In two rounds: first an eighth of the samples everywhere, then the rest only for the cells and lights that
+  // the first round found mostly hidden (a light seen whole needs no guide, so a scene like the Cornell box costs
+  // an eighth of the pre-pass). The shadow rays run on every core (each point has its own random numbers and its
+  // own bits for the answers), then the answers are gathered in point order, so what is learned does not depend
+  // on the threads. Only whether each sample was of use is kept (a bit); the numbers that chose a useful one are
+  // drawn again from the same stream when they are gathered, so the pre-pass holds a few bytes per point (a fresh
+  // process pays for every page it touches).
+  const int perPoint = std::clamp(guiding.samplesPerPoint, 1, 64), firstRound = std::max(1, perPoint / 8);
+  std::vector<std::uint64_t> usefulBits(points.size() * n, 0); // per point and light, bit j: sample j was of use
   std::vector<int> pointCell(points.size());
   for (std::size_t i = 0; i < points.size(); ++i)
     pointCell[i] = cellOf(points[i].hit.point);
@@ -364,14 +369,13 @@ void LightSampler::learn(const LightGuiding& guiding)
           continue;
         // Each point, light and round has its own stream of numbers.
         Sampler sampler(guiding.seed + 1 + k, int(i), from, 0);
+        std::uint64_t bits = 0;
         for (int j = from; j < to; ++j) {
-          const std::size_t slot = i * slots + k * std::size_t(perPoint) + std::size_t(j);
-          const Vec2 u = drawnU[slot] = sampler.next2D();
-          const std::optional<LightSample> ls = sampleLight(k, 1, p.hit.point, u, p.hit.time);
-          taken[slot] = 1;
-          wasUseful[slot] =
-              ls && bsdfEval(m, wo, frame.toLocal(ls->wi)) != Color(0) && lightVisible(scene_, p.hit, *ls);
+          const std::optional<LightSample> ls = sampleLight(k, 1, p.hit.point, sampler.next2D(), p.hit.time);
+          if (ls && bsdfEval(m, wo, frame.toLocal(ls->wi)) != Color(0) && lightVisible(scene_, p.hit, *ls))
+            bits |= std::uint64_t(1) << j;
         }
+        usefulBits[i * n + k] |= bits;
       }
     }
   };
@@ -381,9 +385,8 @@ void LightSampler::learn(const LightGuiding& guiding)
     for (std::size_t i = 0; i < points.size(); ++i)
       for (std::size_t k = 0; k < n; ++k)
         for (int j = 0; j < firstRound; ++j) {
-          const std::size_t slot = i * slots + k * std::size_t(perPoint) + std::size_t(j);
           ++drawn1[std::size_t(pointCell[i]) * n + k];
-          useful1[std::size_t(pointCell[i]) * n + k] += std::size_t(wasUseful[slot]);
+          useful1[std::size_t(pointCell[i]) * n + k] += std::size_t((usefulBits[i * n + k] >> j) & 1);
         }
     for (std::size_t at = 0; at < cells * n; ++at)
       wanted[at] = useful1[at] > 0 && Real(useful1[at]) < guiding.guideBelow * Real(drawn1[at]);
@@ -405,16 +408,17 @@ void LightSampler::learn(const LightGuiding& guiding)
         const Vec3 toCentre = s.centerAt(p.hit.time) - p.hit.point;
         outside = glm::dot(toCentre, toCentre) > s.radius * s.radius;
       }
-      for (int j = 0; j < perPoint; ++j) {
-        const std::size_t slot = i * slots + k * std::size_t(perPoint) + std::size_t(j);
-        if (!taken[slot])
-          continue;
+      // The first round's samples, and the second's where it was drawn; the numbers of a useful one drawn again.
+      const int taken = wanted[at] ? perPoint : firstRound;
+      Sampler first(guiding.seed + 1 + k, int(i), 0, 0), second(guiding.seed + 1 + k, int(i), firstRound, 0);
+      for (int j = 0; j < taken; ++j) {
+        const Vec2 u = (j < firstRound ? first : second).next2D();
         ++drawn[at];
-        if (!wasUseful[slot])
+        if (!((usefulBits[i * n + k] >> j) & 1))
           continue;
         ++useful[at];
         if (outside)
-          usefulAt[at][i % 2].push_back(drawnU[slot]);
+          usefulAt[at][i % 2].push_back(u);
       }
     }
   }
@@ -517,7 +521,7 @@ void LightSampler::learn(const LightGuiding& guiding)
   guideReport_.push_back("light guide: " + std::to_string(points.size()) + " surface points of " +
                          std::to_string(guiding.paths) + " camera paths, " + std::to_string(firstRound) +
                          " samples of each of " + std::to_string(n) + " lights at each (" + std::to_string(perPoint) +
-                         " where partly hidden), in " + std::to_string(learned) + " of " + std::to_string(cells) +
+                         " where mostly hidden), in " + std::to_string(learned) + " of " + std::to_string(cells) +
                          " cells (" + std::to_string(gridSize_.x) + "x" + std::to_string(gridSize_.y) + "x" +
                          std::to_string(gridSize_.z) + ")");
   for (std::size_t k = 0; k < n; ++k) {
@@ -534,6 +538,22 @@ void LightSampler::learn(const LightGuiding& guiding)
   guideReport_.push_back("light guide: samples of use, light choice included: " +
                          percent(chosenBefore / pointsTotal) + " by power -> " + percent(chosenAfter / pointsTotal) +
                          " guided");
+
+  // 6. With a single light a cell that guides nothing chooses it with probability 1 and samples it uniformly, as
+  // the unguided sampler does: such cells are dropped (cellOf gives −1 there), and if that is every cell, the grid
+  // too, so that the render does not look up a cell for every sample.
+  if (n == 1) {
+    for (std::size_t c = 0; c < cells; ++c)
+      if (cellTree_[c].uniform())
+        cellLearned_[c] = 0;
+    if (guidedCells[0] == 0) {
+      cellLearned_.clear();
+      cellCdf_.clear();
+      cellTree_.clear();
+      cellShare_.clear();
+      guideReport_.push_back("light guide: one light, guided nowhere: the render samples it unguided");
+    }
+  }
 }
 // [learn]
 

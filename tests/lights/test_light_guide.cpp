@@ -11,6 +11,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -129,6 +130,10 @@ const std::vector<Place> kPlaces = {
     {"lamp_recess.json", Vec3(1, Real(0.01), 1)},  {"lamp_recess.json", Vec3(2, Real(0.01), -2)},
     {"lamp_slit.json", Vec3(1, Real(0.01), 1)},    {"lampshade.json", Vec3(Real(2.5), Real(0.01), Real(2.5))}};
 
+// The sampler's tests learn wherever a light is partly hidden (guideBelow 0.8), from twice the samples, so that the
+// guide is at work at every place; by default it learns only where fewer than one sample in ten is of use.
+const LightGuiding kEager{.samplesPerPoint = 64, .guideBelow = Real(0.8)};
+
 // The one sphere light of a scene.
 int sphereLight(const Scene& scene)
 {
@@ -145,10 +150,23 @@ TEST_CASE("guided light sampler: directions follow its pdf (chi-square), the pdf
   // The test is made in the cone's own numbers u (sphereConeCoordinates), where the unguided sampler is uniform:
   // the guided sampler's density there is p_guided(ω(u)) / p_uniform. The tree's leaves are at least 2⁻¹⁰ of a
   // side, so that density is constant on the 1024 × 1024 grid of cells whose midpoints integrate it exactly.
-  constexpr int kBins = 32, kFine = 1024, kDraws = 400000;
-  for (const Place& place : kPlaces) {
+  //
+  // Each place draws kRuns independent runs, each from a stream of its own (Sampler(seed, place, run)): a stream
+  // shared between places makes their statistics move together (the same uniform numbers through similar warps:
+  // correlation about 0.6 over 16 seeds), and one unlucky stream then lifts them all at once. That was the "5%
+  // above the expectation" once seen here: with one shared stream (seed 5) the 8 statistics averaged 1093 against
+  // 1023 degrees of freedom, with seed 7 975; over 64 independent streams per place the means were 1009 to 1031
+  // (± 5), and 4·10⁷ draws at one place (a hundred times this test's) gave no excess either (924 to 1021).
+  // Checked: each place's pooled histogram at 1%; the mean of all the runs' statistics against the degrees of
+  // freedom (two-sided, 1%); and the test's power, by the pooled histogram rejecting a pdf whose mixture weight is
+  // off by 5%.
+  constexpr int kBins = 32, kFine = 1024, kRuns = 8, kDraws = 100000;
+  std::vector<double> statistics;
+  int dof = 0, guidedPlaces = 0;
+  for (std::size_t placeIndex = 0; placeIndex < kPlaces.size(); ++placeIndex) {
+    const Place& place = kPlaces[placeIndex];
     const Scene scene = loadScene(kScenes + "/" + place.scene);
-    const LightSampler guided(scene, LightGuiding{}), plain(scene);
+    const LightSampler guided(scene, kEager), plain(scene);
     const int light = sphereLight(scene);
     REQUIRE(light >= 0);
     const Sphere& s = scene.spheres[std::size_t(light)];
@@ -159,49 +177,78 @@ TEST_CASE("guided light sampler: directions follow its pdf (chi-square), the pdf
       const Real t = roots ? (roots->t0 >= 0 ? roots->t0 : roots->t1) : glm::dot(s.center - ref, w);
       return double(guided.pdf(ref, light, ref + t * w)) / double(plain.pdf(ref, light, ref + t * w));
     };
-    std::vector<double> expected(kBins * kBins, 0), observed(kBins * kBins, 0);
+    // Each bin's probability.
+    std::vector<double> probability(kBins * kBins, 0);
     for (int y = 0; y < kFine; ++y)
       for (int x = 0; x < kFine; ++x) {
         const Vec2 u((Real(x) + Real(0.5)) / kFine, (Real(y) + Real(0.5)) / kFine);
-        expected[std::size_t(y * kBins / kFine * kBins + x * kBins / kFine)] +=
-            ratioAt(u) / (double(kFine) * kFine) * kDraws;
+        probability[std::size_t(y * kBins / kFine * kBins + x * kBins / kFine)] +=
+            ratioAt(u) / (double(kFine) * kFine);
       }
-    Sampler rng(5, 0, 0, 0);
+    const auto chiSquare = [&](const std::vector<double>& observed, double draws, double wrongWeight = 0) {
+      double statistic = 0;
+      for (std::size_t k = 0; k < observed.size(); ++k) {
+        // wrongWeight > 0: the pdf the sampler would report with its uniform share off by that much.
+        const double e = draws * ((1 - wrongWeight) * probability[k] + wrongWeight / double(kBins * kBins));
+        statistic += (observed[k] - e) * (observed[k] - e) / e;
+      }
+      return statistic;
+    };
     double worstMismatch = 0;
     int mismatches = 0;
-    for (int i = 0; i < kDraws; ++i) {
-      const Real uLight = rng.next1D();
-      const std::optional<LightSample> ls = guided.sample(ref, uLight, rng.next2D());
-      REQUIRE(ls.has_value());
-      // The pdf MIS reads for this direction (LightSampler::pdf) is the one the sample carries.
-      const double mismatch = std::abs(double(guided.pdf(ref, light, ls->target) / ls->pdf) - 1);
-      worstMismatch = std::max(worstMismatch, mismatch);
-      mismatches += mismatch > 1e-2;
-      const Vec2 u = sphereConeCoordinates(ref, s.center, s.radius, ls->wi);
-      observed[std::size_t(std::min(kBins - 1, int(u.y * kBins)) * kBins + std::min(kBins - 1, int(u.x * kBins)))] += 1;
+    std::vector<double> pooled(kBins * kBins, 0);
+    for (int run = 0; run < kRuns; ++run) {
+      std::vector<double> observed(kBins * kBins, 0);
+      Sampler rng(5, int(placeIndex), 0, std::uint64_t(run));
+      for (int i = 0; i < kDraws; ++i) {
+        const Real uLight = rng.next1D();
+        const std::optional<LightSample> ls = guided.sample(ref, uLight, rng.next2D());
+        REQUIRE(ls.has_value());
+        // The pdf MIS reads for this direction (LightSampler::pdf) is the one the sample carries.
+        const double mismatch = std::abs(double(guided.pdf(ref, light, ls->target) / ls->pdf) - 1);
+        worstMismatch = std::max(worstMismatch, mismatch);
+        mismatches += mismatch > 1e-2;
+        const Vec2 u = sphereConeCoordinates(ref, s.center, s.radius, ls->wi);
+        observed[std::size_t(std::min(kBins - 1, int(u.y * kBins)) * kBins + std::min(kBins - 1, int(u.x * kBins)))] +=
+            1;
+      }
+      statistics.push_back(chiSquare(observed, kDraws));
+      for (std::size_t k = 0; k < pooled.size(); ++k)
+        pooled[k] += observed[k];
     }
-    double statistic = 0;
-    int cells = 0;
-    for (std::size_t k = 0; k < observed.size(); ++k) {
-      REQUIRE(expected[k] > 5); // the uniform share alone expects 0.3 × 400000 / 1024 ≈ 117
-      statistic += (observed[k] - expected[k]) * (observed[k] - expected[k]) / expected[k];
-      ++cells;
-    }
-    INFO(place.scene << " at (" << ref.x << ", " << ref.y << ", " << ref.z << "): chi2 = " << statistic << " with "
-                     << cells - 1 << " dof; " << mismatches << " pdfs differ by over 1%, the worst by "
-                     << worstMismatch);
-    // At significance 0.1% here: over these 8 places and other seeds the statistic came out about 5% above its
-    // expectation (1023) on average, though the marginals in u.x and u.y are right and the tree alone is not (see
-    // the sample tree's test); not understood yet, so the bound is looser than the 1% of the other tests. The bug
-    // this test found (a warp stretched by the wrong width) gave 10⁵ to 10⁶.
-    CHECK(statistic <= chiSquareQuantile(cells - 1, 0.001));
+    for (const double p : probability)
+      REQUIRE(p * kDraws > 5); // the uniform share alone (at least 0.15) expects 0.15 × 100000 / 1024 ≈ 15
+    dof = kBins * kBins - 1;
+    const double statistic = chiSquare(pooled, double(kRuns) * kDraws);
+    const double wrong = chiSquare(pooled, double(kRuns) * kDraws, 0.05);
+    INFO(place.scene << " at (" << ref.x << ", " << ref.y << ", " << ref.z << "): pooled chi2 = " << statistic
+                     << " with " << dof << " dof (against the mixture weight off by 5%: " << wrong << "); "
+                     << mismatches << " pdfs differ by over 1%, the worst by " << worstMismatch);
+    CHECK(statistic <= chiSquareQuantile(dof, kSignificance));
+    // Where the guide learned nothing (in float, at the slit's point) the pdf is uniform, and so is the wrong one.
+    const bool guidedHere = *std::max_element(probability.begin(), probability.end()) * kBins * kBins > 1.5;
+    if (guidedHere)
+      CHECK(wrong > chiSquareQuantile(dof, kSignificance));
+    guidedPlaces += guidedHere;
     // In double the two pdfs agree to rounding. In float, a direction drawn within rounding of a tree leaf's edge
     // can map back (sphereConeCoordinates) into the neighbouring leaf, whose density differs: rare, and counted.
     if constexpr (sizeof(Real) == 4)
-      CHECK(mismatches <= kDraws / 10000);
+      CHECK(mismatches <= kRuns * kDraws / 10000);
     else
       CHECK(worstMismatch < 1e-6);
   }
+  // The statistics of independent runs average to the degrees of freedom (exactly, for a multinomial): a density
+  // that differs from the pdf by a little everywhere lifts the mean long before it fails any one run.
+  double mean = 0, spread = 0;
+  for (const double x : statistics)
+    mean += x / double(statistics.size());
+  for (const double x : statistics)
+    spread += (x - mean) * (x - mean) / double(statistics.size() - 1);
+  const double standardError = std::sqrt(spread / double(statistics.size()));
+  INFO("mean of " << statistics.size() << " chi2 statistics " << mean << " +- " << standardError << " against "
+                  << dof << " dof");
+  CHECK(std::abs(mean - dof) <= 2.576 * standardError); // two-sided at 1%
+  CHECK(guidedPlaces >= int(kPlaces.size()) - (sizeof(Real) == 4 ? 1 : 0));
 }
 
 TEST_CASE("guided light sampler: its pdf integrates to one over the cone, and it is guided where the lamp hides")
@@ -209,7 +256,7 @@ TEST_CASE("guided light sampler: its pdf integrates to one over the cone, and it
   int places = 0, guidedPlaces = 0;
   for (const Place& place : kPlaces) {
     const Scene scene = loadScene(kScenes + "/" + place.scene);
-    const LightSampler guided(scene, LightGuiding{}), plain(scene);
+    const LightSampler guided(scene, kEager), plain(scene);
     const int light = sphereLight(scene);
     const Sphere& s = scene.spheres[std::size_t(light)];
     const Vec3 ref = place.point;
@@ -237,6 +284,26 @@ TEST_CASE("guided light sampler: its pdf integrates to one over the cone, and it
   // Guided at every place in double. In float the pre-pass's held-out judgement declined the guide at the slit's
   // point (1, 0.01, 1), so there one place may go unguided.
   CHECK(guidedPlaces >= places - (sizeof(Real) == 4 ? 1 : 0));
+  // By default, guided where the lamp is hidden most: smallpt's places (1.5% of the samples of use).
+  const Scene smallpt = loadScene(kScenes + "/smallpt.json");
+  const LightSampler byDefault(smallpt, LightGuiding{}), plain(smallpt);
+  const int light = sphereLight(smallpt);
+  const Sphere& s = smallpt.spheres[std::size_t(light)];
+  for (const Place& place : kPlaces) {
+    if (place.scene != "smallpt.json")
+      continue;
+    Sampler rng(8, 0, 0, 0);
+    double largest = 0;
+    for (int i = 0; i < 10000; ++i) {
+      const Vec3 w = sampleSphereCone(place.point, s.center, s.radius, rng.next2D());
+      const std::optional<SphereRoots<Real>> roots = intersectSphereRoots(place.point, w, s.center, s.radius);
+      const Real t = roots ? (roots->t0 >= 0 ? roots->t0 : roots->t1) : glm::dot(s.center - place.point, w);
+      const Vec3 hit = place.point + t * w;
+      largest = std::max(largest, double(byDefault.pdf(place.point, light, hit) / plain.pdf(place.point, light, hit)));
+    }
+    INFO("smallpt at (" << place.point.x << ", " << place.point.y << ", " << place.point.z << "), by default");
+    CHECK(largest > 1.5);
+  }
 }
 
 TEST_CASE("guided light sampler: what it learns is the same on every run, and it reports it")
