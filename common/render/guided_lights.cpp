@@ -14,7 +14,9 @@ LightSampler makeLightSampler(const std::string& name, const Scene& scene, const
 {
   if (options.choice("--guide") == "off")
     return LightSampler(scene);
-  LightSampler lights(scene, LightGuiding{});
+  LightGuiding guiding;
+  guiding.threads = options.threads(); // --threads 1 means one thread for the pre-pass too
+  LightSampler lights(scene, guiding);
   if (options.verbose())
     for (const std::string& line : lights.describeGuide())
       std::cerr << name << ": " << line << "\n";

@@ -285,7 +285,7 @@ RenderOptions parseCommandLine(int argc, const char* const* argv, const std::vec
       o.scenePath = arg;
     }
   }
-  o.chapter = ChapterOptions(chapterOptions, std::move(chapterValues), o.verbose);
+  o.chapter = ChapterOptions(chapterOptions, std::move(chapterValues), o.verbose, o.threads);
   if (o.spp && o.seconds)
     throw UsageError("give --spp or --time, not both");
   if (o.samples && !o.spp)

@@ -46,8 +46,10 @@ public:
   ChapterOptions() = default;
   /// @param specs The chapter's options. @param given Raw values by name (checked), "" for a flag given.
   /// @param verbose Whether --verbose was given (a chapter then says what it built for the scene).
-  ChapterOptions(std::vector<ChapterOption> specs, std::map<std::string, std::string> given, bool verbose = false)
-      : specs_(std::move(specs)), given_(std::move(given)), verbose_(verbose) {}
+  /// @param threads --threads (≥ 1), or 0 for every core: what work a chapter does before the render may use.
+  ChapterOptions(std::vector<ChapterOption> specs, std::map<std::string, std::string> given, bool verbose = false,
+                 int threads = 0)
+      : specs_(std::move(specs)), given_(std::move(given)), verbose_(verbose), threads_(threads) {}
   /// Whether flag `name` was given. @throws std::logic_error if the chapter declared no such flag.
   bool flag(const std::string& name) const;
   /// The word of Choice `name`. @throws std::logic_error if the chapter declared no such choice.
@@ -62,12 +64,15 @@ public:
   bool given(const std::string& name) const { return given_.count(name) > 0; }
   /// Whether --verbose was given: the chapter may then print, on standard error, what it built for the scene.
   bool verbose() const { return verbose_; }
+  /// --threads (≥ 1), or 0 for every core: the threads a chapter's own work before the render (a pre-pass) may use.
+  int threads() const { return threads_; }
 
 private:
   const std::string& value(const std::string& name, OptionKind kind) const;
   std::vector<ChapterOption> specs_;
   std::map<std::string, std::string> given_;
   bool verbose_ = false;
+  int threads_ = 0;
 };
 
 /// What the command line asked for. Zero or empty means "the chapter's or the scene's default".

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <omp.h>
 
 namespace raylife {
 
@@ -356,8 +357,9 @@ void LightSampler::learn(const LightGuiding& guiding)
   for (std::size_t i = 0; i < points.size(); ++i)
     pointCell[i] = cellOf(points[i].hit.point);
   std::vector<char> wanted(cells * n, 1); // per cell and light: draw its samples in this round
+  const int threads = guiding.threads > 0 ? guiding.threads : omp_get_max_threads();
   const auto drawRound = [&](int from, int to) {
-#pragma omp parallel for schedule(dynamic, 64)
+#pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
     for (std::ptrdiff_t ii = 0; ii < std::ptrdiff_t(points.size()); ++ii) {
       const std::size_t i = std::size_t(ii);
       const Point& p = points[i];

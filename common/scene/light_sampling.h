@@ -329,6 +329,9 @@ struct LightGuiding {
   /// unbiased wherever the pre-pass missed light.
   Real keepBelow = Real(0.9);
   std::uint64_t seed = 0x5eed1e57ull; ///< The pre-pass's random numbers.
+  /// Threads for the pre-pass's shadow rays, ≥ 1, or 0 for every core (a chapter passes its --threads). What is
+  /// learned is the same for any number.
+  int threads = 0;
 };
 
 /// Chooses one of a scene's lights (its emissive spheres and triangles, and its point lights) in proportion to an
