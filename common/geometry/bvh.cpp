@@ -731,6 +731,15 @@ template <class V> struct BvhWalk {
   std::uint32_t current = 0; // the node (or leaf) to visit next: the root first
   int stackSize = 0;
   Entry stack[(BvhWideNode::kWidth - 1) * Bvh::kMaxDepth + 1];
+
+  // Starts the walk of `ray` at the root, boxes beyond `tmax` skipped.
+  void start(const Ray& ray, Real tmax)
+  {
+    prepareBoxRay<V>(ray, tmax, boxRay);
+    tNearest = boxRay.tmax[0];
+    current = 0;
+    stackSize = 0;
+  }
 };
 
 // (flatten: inline the sphere and triangle tests into the loops, as they are in the scene's flat loop; a call per
@@ -743,8 +752,7 @@ template <bool kAnyHit, bool kCountWork, class V>
   // (found.t is ray.tmax, or the nearest hit outside the tree: boxes beyond it are skipped. No branch on which:
   // whether a ray hits the ground sphere, say, is random from ray to ray.)
   BvhWalk<V> walk;
-  prepareBoxRay<V>(ray, found.t, walk.boxRay); // (in place: a BoxRay returned and assigned is a 450-byte copy)
-  walk.tNearest = walk.boxRay.tmax[0];
+  walk.start(ray, found.t);
   // Depth first, a node at a time.
   while (visit<kAnyHit, kCountWork, V>(ray, walk, found)) {
   }
@@ -969,14 +977,10 @@ template <int kInFlight, class V>
       if (!outside_.empty())
         testOutside<false, false>(ray, found[k]);
       if (wideNodes_.empty()) {
-        const Traversal& r = found[k];
-        out[next] = r.primitive < 0 ? std::nullopt : std::optional<BvhHit>(BvhHit{r.t, r.primitive});
+        out[next] = found[k].hit();
         continue;
       }
-      prepareBoxRay<V>(ray, found[k].t, walks[k].boxRay);
-      walks[k].tNearest = walks[k].boxRay.tmax[0];
-      walks[k].current = 0;
-      walks[k].stackSize = 0;
+      walks[k].start(ray, found[k].t);
       which[k] = next++;
       return true;
     }
@@ -988,8 +992,7 @@ template <int kInFlight, class V>
   while (goingCount > 0)
     for (int k = 0; k < kInFlight; ++k)
       if (going[k] && !visit<false, false, V>(rays[which[k]], walks[k], found[k])) {
-        const Traversal& r = found[k];
-        out[which[k]] = r.primitive < 0 ? std::nullopt : std::optional<BvhHit>(BvhHit{r.t, r.primitive});
+        out[which[k]] = found[k].hit();
         going[k] = start(k);
         goingCount -= !going[k];
       }
@@ -1030,10 +1033,7 @@ void Bvh::intersectInterleaved(std::span<const Ray> rays, std::span<std::optiona
 
 std::optional<BvhHit> Bvh::intersect(const Ray& ray) const
 {
-  const Traversal r = dispatch<false, false>(ray);
-  if (r.primitive < 0)
-    return std::nullopt;
-  return BvhHit{r.t, r.primitive};
+  return dispatch<false, false>(ray).hit();
 }
 
 bool Bvh::occluded(const Ray& ray) const { return dispatch<true, false>(ray).primitive >= 0; }
@@ -1041,9 +1041,7 @@ bool Bvh::occluded(const Ray& ray) const { return dispatch<true, false>(ray).pri
 BvhTracedHit Bvh::intersectWithWork(const Ray& ray) const
 {
   const Traversal r = dispatch<false, true>(ray);
-  if (r.primitive < 0)
-    return BvhTracedHit{std::nullopt, r.work};
-  return BvhTracedHit{BvhHit{r.t, r.primitive}, r.work};
+  return BvhTracedHit{r.hit(), r.work};
 }
 
 BvhTracedOcclusion Bvh::occludedWithWork(const Ray& ray) const

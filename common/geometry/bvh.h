@@ -258,6 +258,10 @@ private:
     Real t;
     int primitive; // −1: nothing hit
     BvhWork work;  // zero unless counted
+    std::optional<BvhHit> hit() const // as intersect answers
+    {
+      return primitive < 0 ? std::nullopt : std::optional<BvhHit>(BvhHit{t, primitive});
+    }
   };
   // The tree's walk, with V the lanes of the box test (four or eight floats).
   // `found`: what the primitives outside the tree gave (the nearest hit so far, or the ray's tmax and −1).
