@@ -16,7 +16,7 @@
 #include "scene/mesh_file.h"
 
 #if RAYLIFE_EMBREE
-#include <embree3/rtcore.h>
+#include "../embree_ray.h"
 #endif
 
 #include <sys/resource.h>
@@ -248,17 +248,7 @@ int main(int argc, char** argv)
     auto embreeHit = [&](const Ray& r) {
       RTCIntersectContext context;
       rtcInitIntersectContext(&context);
-      RTCRayHit rh{};
-      rh.ray.org_x = float(r.origin.x);
-      rh.ray.org_y = float(r.origin.y);
-      rh.ray.org_z = float(r.origin.z);
-      rh.ray.dir_x = float(r.direction.x);
-      rh.ray.dir_y = float(r.direction.y);
-      rh.ray.dir_z = float(r.direction.z);
-      rh.ray.tnear = float(r.tmin);
-      rh.ray.tfar = std::numeric_limits<float>::infinity();
-      rh.ray.mask = ~0u;
-      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      RTCRayHit rh = embreeRayHit(r, float(r.tmin));
       rtcIntersect1(scene, &context, &rh);
       return rh;
     };
