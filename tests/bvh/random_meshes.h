@@ -76,8 +76,11 @@ inline TestMesh<Real> triangleSoup(Random& random, int n, Real extent)
     // A sliver: its width a millionth of its length in double; in float that is below the coordinates' precision
     // (the triangle comes out degenerate, and a scene of it alone is never hit), so there a ten-thousandth.
     constexpr Real kSliver = sizeof(Real) == 4 ? Real(1e-4) : Real(1e-6);
-    if (k % 10 == 0)
-      c = a + (b - a) * random.uniform(0, 1) + random.direction() * (size * kSliver);
+    if (k % 10 == 0) { // (the direction drawn first, as GCC drew it when both draws were in one expression)
+      const Vec3 across = random.direction();
+      const Real along = random.uniform(0, 1);
+      c = a + (b - a) * along + across * (size * kSliver);
+    }
     const auto first = std::uint32_t(m.vertices.size());
     m.vertices.insert(m.vertices.end(), {a, b, c});
     m.triangles.push_back({first, first + 1, first + 2});

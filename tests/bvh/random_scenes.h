@@ -16,13 +16,23 @@
 namespace raylife::testing {
 
 // ---- Random numbers for scenes and rays (raylife's own generator, so every platform draws the same) ----------
+// Draws are made one statement at a time, never two in one call: C++ leaves the order of a call's arguments (and of
+// an overloaded operator's operands) unspecified, GCC evaluating them right to left and clang left to right, and the
+// scenes and rays must not depend on the compiler. Where one call used to make several draws, the statements make
+// them in the order GCC did (the last argument first), so the tests keep the scenes and rays they had.
 class Random {
 public:
   explicit Random(std::uint64_t seed) : rng_(seed, 0x853c49e6748fea9bULL) {}
   Real uniform() { return Real(rng_.nextUint()) * Real(0x1p-32); }                 // [0, 1)
   Real uniform(Real lo, Real hi) { return lo + (hi - lo) * uniform(); }            // [lo, hi)
   std::size_t index(std::size_t n) { return std::size_t(rng_.nextUint()) % n; }    // [0, n)
-  Vec3 inBox(Real lo, Real hi) { return Vec3(uniform(lo, hi), uniform(lo, hi), uniform(lo, hi)); }
+  Vec3 inBox(Real lo, Real hi)
+  {
+    const Real z = uniform(lo, hi);
+    const Real y = uniform(lo, hi);
+    const Real x = uniform(lo, hi);
+    return Vec3(x, y, z);
+  }
   Vec3 direction() // uniform on the unit sphere
   {
     const Real z = uniform(-1, 1), phi = 2 * kPi * uniform();
@@ -71,7 +81,8 @@ inline std::vector<Sphere> clusteredScene(Random& random, int n)
   for (int c = 0; c < 6; ++c)
     centres.push_back(random.inBox(-50, 50));
   for (int i = 0; i < n; ++i) {
-    const Vec3 c = centres[random.index(centres.size())] + random.inBox(-2, 2);
+    const Vec3 offset = random.inBox(-2, 2);
+    const Vec3 c = centres[random.index(centres.size())] + offset;
     s.push_back(Sphere{c, std::pow(Real(10), random.uniform(-3, 0)), 0});
   }
   return s;
@@ -113,7 +124,9 @@ inline std::vector<Sphere> groundScene(Random& random, int n)
   std::vector<Sphere> s{Sphere{Vec3(0, -1000, 0), 1000, 0}};
   for (int i = 1; i < n; ++i) {
     const Real r = random.uniform(Real(0.1), Real(0.4));
-    s.push_back(Sphere{Vec3(random.uniform(-11, 11), r, random.uniform(-11, 11)), r, 0});
+    const Real z = random.uniform(-11, 11);
+    const Real x = random.uniform(-11, 11);
+    s.push_back(Sphere{Vec3(x, r, z), r, 0});
   }
   return s;
 }
@@ -130,7 +143,9 @@ inline std::vector<Sphere> roomScene(Random& random, int n)
   for (int i = 0; i < n; ++i) {
     const bool behind = i % 10 != 0;
     const Real z = behind ? random.uniform(-60, -2) : random.uniform(5, 165);
-    const Vec3 c(random.uniform(0, 100), random.uniform(0, 80), z);
+    const Real y = random.uniform(0, 80);
+    const Real x = random.uniform(0, 100);
+    const Vec3 c(x, y, z);
     s.push_back(Sphere{c, random.uniform(Real(0.3), Real(1.5)), 0});
   }
   return s;
@@ -146,9 +161,11 @@ inline Ray randomRay(Random& random, const std::vector<Sphere>& spheres, Real ex
   case 0: // anywhere around the scene, any direction
     ray.origin = random.inBox(-extent, extent);
     break;
-  case 1: // from inside a sphere
-    ray.origin = s.center + random.direction() * (s.radius * random.uniform(0, Real(0.999)));
+  case 1: { // from inside a sphere
+    const Real depth = random.uniform(0, Real(0.999));
+    ray.origin = s.center + random.direction() * (s.radius * depth);
     break;
+  }
   case 2: { // grazing: tangent to a sphere, or within a hair of it
     Vec3 side = glm::cross(ray.direction, random.direction());
     side = glm::normalize(side);

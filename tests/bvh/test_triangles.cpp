@@ -29,7 +29,8 @@ struct Mixed {
   }
 };
 
-// A ray of one of the awkward kinds for triangles, or, one time in four, randomRay's kinds for the spheres.
+// A ray of one of the awkward kinds for triangles, or, one time in four, randomRay's kinds for the spheres. (Its
+// draws are made one statement at a time, as random_scenes.h says why, in the order GCC made them before.)
 Ray triangleRay(Random& random, const Mixed& s, Real extent)
 {
   if (!s.spheres.empty() && random.index(4) == 0)
@@ -55,8 +56,12 @@ Ray triangleRay(Random& random, const Mixed& s, Real extent)
   }
   case 3: { // in the triangle's own plane (grazing: parallel to the face)
     const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
-    ray.origin = p[0] + e1 * random.uniform(-1, 2) + e2 * random.uniform(-1, 2);
-    target = p[0] + e1 * random.uniform(-1, 2) + e2 * random.uniform(-1, 2);
+    const Real originAlong2 = random.uniform(-1, 2);
+    const Real originAlong1 = random.uniform(-1, 2);
+    ray.origin = p[0] + e1 * originAlong1 + e2 * originAlong2;
+    const Real targetAlong2 = random.uniform(-1, 2);
+    const Real targetAlong1 = random.uniform(-1, 2);
+    target = p[0] + e1 * targetAlong1 + e2 * targetAlong2;
     break;
   }
   case 4: { // from a point on the face (an unshifted secondary ray), any direction
@@ -178,11 +183,16 @@ TEST_CASE("a ray leaving a triangle through spawnRay's offset never finds the sa
   int rays = 0, offsetHits = 0, naiveHits = 0;
   for (int i = 0; i < 100000; ++i) {
     const Real scale = std::pow(Real(10), random.uniform(-2, 5));
-    const Vec3 p0 = random.inBox(-scale, scale), p1 = p0 + random.direction() * random.uniform(Real(0.01), 10) * scale,
-               p2 = p0 + random.direction() * random.uniform(Real(0.01), 10) * scale;
+    // One draw a statement (see random_scenes.h), in the order GCC made them when some shared an expression.
+    const Vec3 p0 = random.inBox(-scale, scale);
+    const Real length1 = random.uniform(Real(0.01), 10);
+    const Vec3 p1 = p0 + random.direction() * length1 * scale;
+    const Real length2 = random.uniform(Real(0.01), 10);
+    const Vec3 p2 = p0 + random.direction() * length2 * scale;
     const Real b1 = random.uniform(), b2 = random.uniform() * (1 - b1);
     const Vec3 aim = p0 + (p1 - p0) * b1 + (p2 - p0) * b2;
-    const Vec3 from = aim + random.direction() * (scale * random.uniform(1, 100));
+    const Real distance = random.uniform(1, 100);
+    const Vec3 from = aim + random.direction() * (scale * distance);
     const Vec3 d = glm::normalize(aim - from);
     const auto h = intersectTriangle(from, d, p0, p1, p2, Real(0), kInfinity);
     if (!h)

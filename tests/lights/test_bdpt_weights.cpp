@@ -30,6 +30,17 @@ BsdfSample diffuseSample(const Material& m, const Vec3& wo, const Vec3& wi)
 
 Vec3 unit(const Vec3& v) { return v / glm::length(v); }
 
+// A point uniform on the camera's film. Its two numbers are drawn one statement at a time, never two in one call: C++
+// leaves the order of a call's arguments unspecified (GCC evaluates them right to left, clang left to right), and the
+// paths must not depend on the compiler. Here, and for the BSDF samples below, the statements draw in the order GCC
+// did when the draws were arguments of one call (the last argument first), so the tests keep their paths.
+Vec2 filmPoint(Sampler& sampler, const Camera& camera)
+{
+  const Real y = sampler.next1D();
+  const Real x = sampler.next1D();
+  return Vec2(x * Real(camera.width()), y * Real(camera.height()));
+}
+
 } // namespace
 
 TEST_CASE("the MIS weights of the strategies that make a path sum to one (random paths of 3 edges)")
@@ -47,7 +58,7 @@ TEST_CASE("the MIS weights of the strategies that make a path sum to one (random
     Sampler sampler(7, 1, 2, trial);
     const Context c{scene, lights, strategies, splats, sampler, INT_MAX, Real(camera.width() * camera.height())};
     // The camera subpath: a primary ray, z1 on the wall, a diffuse bounce to z2 on the wall.
-    const Vec2 film(sampler.next1D() * Real(camera.width()), sampler.next1D() * Real(camera.height()));
+    const Vec2 film = filmPoint(sampler, camera);
     const Ray primary = camera.ray(film);
     const std::optional<Hit> z1 = scene.intersect(primary);
     if (!z1 || z1->primitive != 0)
@@ -164,7 +175,7 @@ TEST_CASE("the MIS weights sum to one on paths through a mirror (a delta vertex:
     Sampler sampler(11, 3, 4, trial);
     const Context c{scene, lights, strategies, splats, sampler, INT_MAX, Real(camera.width() * camera.height())};
     // The camera subpath: z1 on the wall, a diffuse bounce that meets the mirror at m, its reflection the lamp at y0.
-    const Vec2 film(sampler.next1D() * Real(camera.width()), sampler.next1D() * Real(camera.height()));
+    const Vec2 film = filmPoint(sampler, camera);
     const Ray primary = camera.ray(film);
     const std::optional<Hit> z1 = scene.intersect(primary);
     if (!z1 || z1->primitive != 0)
@@ -178,7 +189,9 @@ TEST_CASE("the MIS weights sum to one on paths through a mirror (a delta vertex:
       continue;
     const Frame fm = Frame::fromNormal(m->normal);
     const Vec3 woM = fm.toLocal(-toMirror.direction);
-    const std::optional<BsdfSample> reflect = bsdfSample(steel, woM, sampler.next2D(), sampler.next1D());
+    const Real uChoiceM = sampler.next1D();
+    const Vec2 uM = sampler.next2D();
+    const std::optional<BsdfSample> reflect = bsdfSample(steel, woM, uM, uChoiceM);
     REQUIRE(reflect);
     REQUIRE(reflect->specular);
     const Ray toLamp = spawnRay(*m, fm.toWorld(reflect->wi));
@@ -205,7 +218,9 @@ TEST_CASE("the MIS weights sum to one on paths through a mirror (a delta vertex:
     light.dVC = mis(cosY0 / emission) / mis(cosM);
     light.dVCM = mis(lights.pdf(m->point, 1, y0->point) * cosY0 / (emission * cosM));
     const Vec3 woLight = fm.toLocal(-fromLamp); // towards the lamp, where the light path came from
-    const std::optional<BsdfSample> back = bsdfSample(steel, woLight, sampler.next2D(), sampler.next1D());
+    const Real uChoiceBack = sampler.next1D();
+    const Vec2 uBack = sampler.next2D();
+    const std::optional<BsdfSample> back = bsdfSample(steel, woLight, uBack, uChoiceBack);
     REQUIRE(back);
     leave(light, *back, back->pdf);
     const Vec3 towardsZ1 = fm.toWorld(back->wi);

@@ -315,7 +315,12 @@ TEST_CASE("guided light sampler: what it learns is the same on every run, and it
   CHECK(a.describeGuide()[1].find("sphere 8: samples of use") != std::string::npos);
   Sampler rng(7, 0, 0, 0);
   for (int i = 0; i < 1000; ++i) {
-    const Vec3 ref(Real(1) + 98 * rng.next1D(), Real(81.5) * rng.next1D(), 170 * rng.next1D());
+    // One draw a statement (C++ leaves the order of a call's arguments unspecified; GCC evaluates them right to
+    // left, clang left to right), in the order GCC drew them as arguments of one call: z, y, x.
+    const Real pz = rng.next1D();
+    const Real py = rng.next1D();
+    const Real px = rng.next1D();
+    const Vec3 ref(Real(1) + 98 * px, Real(81.5) * py, 170 * pz);
     const Real uLight = rng.next1D();
     const Vec2 u = rng.next2D();
     const std::optional<LightSample> x = a.sample(ref, uLight, u), y = b.sample(ref, uLight, u);

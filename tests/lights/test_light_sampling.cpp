@@ -41,6 +41,11 @@ double conePdfOrZero(const Vec3& ref, const Vec3& c, Real r, const Vec3& w)
 // A random number log-uniform in [10^lo, 10^hi].
 double logUniform(Sampler& rng, double lo, double hi) { return std::pow(10.0, lo + (hi - lo) * double(rng.next1D())); }
 
+// The random numbers below are drawn one statement at a time, never two in one call: C++ leaves the order of a call's
+// arguments unspecified (GCC evaluates them right to left, clang left to right), and the draws must not depend on the
+// compiler. Where a call once made several draws, the statements make them in the order GCC did, last argument first,
+// so the tests keep the samples their thresholds were set on.
+
 } // namespace
 
 // ---- The cone sampler against its pdf --------------------------------------------------------------------------
@@ -94,7 +99,10 @@ TEST_CASE("every sampled direction towards a spherical light hits it, near and f
     int misses = 0, total = 0;
     for (int config = 0; config < 2000; ++config) {
       const T r = T(logUniform(rng, -2, 2));
-      const TVec3<T> c(T(rng.next1D() * 20 - 10), T(rng.next1D() * 20 - 10), T(rng.next1D() * 20 - 10));
+      const Real cz = rng.next1D();
+      const Real cy = rng.next1D();
+      const Real cx = rng.next1D();
+      const TVec3<T> c(T(cx * 20 - 10), T(cy * 20 - 10), T(cz * 20 - 10));
       const Vec3 dir = sampleUniformSphere(rng.next2D());
       const T d = r * T(1 + logUniform(rng, -5, maxLogDistance));
       const TVec3<T> ref = c + d * TVec3<T>(dir);
@@ -197,7 +205,9 @@ TEST_CASE("lights are chosen in proportion to their power and the pdf for a dire
   int count[3] = {0, 0, 0};
   const int n = 90000;
   for (int i = 0; i < n; ++i) {
-    const std::optional<LightSample> ls = lights.sample(ref, rng.next1D(), rng.next2D());
+    const Vec2 uPoint = rng.next2D();
+    const Real uLight = rng.next1D();
+    const std::optional<LightSample> ls = lights.sample(ref, uLight, uPoint);
     REQUIRE(ls);
     CHECK(ls->pdf > 0);
     if (ls->delta) {
@@ -266,11 +276,22 @@ TEST_CASE("a light sample is visible exactly when the first sphere its shadow ra
     int visible = 0, blocked = 0, onLamp = 0, disagree = 0, shortcutWrong = 0;
     for (int i = 0; i < 100000; ++i) {
       const bool insideLamp = i % 10 == 0;
-      const Vec3 from = insideLamp ? Vec3(0, 8, 0) + Real(1.9) * sampleUniformSphere(rng.next2D()) * rng.next1D()
-                                   : Vec3(rng.next1D() * 20 - 10, rng.next1D() * 20 - 10, rng.next1D() * 20 - 10);
+      Vec3 from;
+      if (insideLamp) {
+        const Real scale = rng.next1D();
+        const Vec2 u = rng.next2D();
+        from = Vec3(0, 8, 0) + Real(1.9) * sampleUniformSphere(u) * scale;
+      } else {
+        const Real z = rng.next1D();
+        const Real y = rng.next1D();
+        const Real x = rng.next1D();
+        from = Vec3(x * 20 - 10, y * 20 - 10, z * 20 - 10);
+      }
       const std::optional<Hit> hit = scene.intersect(Ray{from, sampleUniformSphere(rng.next2D()), 0, kInfinity});
       REQUIRE(hit);
-      const std::optional<LightSample> ls = lights.sample(hit->point, rng.next1D(), rng.next2D());
+      const Vec2 uPoint = rng.next2D();
+      const Real uLight = rng.next1D();
+      const std::optional<LightSample> ls = lights.sample(hit->point, uLight, uPoint);
       REQUIRE(ls);
       const std::optional<Hit> seen = scene.intersect(spawnRay(*hit, ls->wi));
       const bool expected = seen && seen->primitive == ls->primitive;
@@ -357,17 +378,22 @@ TEST_CASE("MIS: for random glossy and diffuse surfaces under random sphere light
     scene.materials = {lamp, surface};
     scene.spheres = {Sphere{Vec3(0), radius, 0}};
     const LightSampler lights(scene);
-    const Vec3 ref = Real(radius * logUniform(rng, 0.01, 3)) * sampleUniformSphere(rng.next2D());
+    const Vec3 refDirection = sampleUniformSphere(rng.next2D());
+    const Vec3 ref = Real(radius * logUniform(rng, 0.01, 3)) * refDirection;
     const Frame frame = Frame::fromNormal(sampleUniformSphere(rng.next2D()));
     Vec3 wo = sampleUniformHemisphere(rng.next2D());
     for (int s = 0; s < 20; ++s) {
       // The light strategy's direction.
-      const std::optional<LightSample> ls = lights.sample(ref, rng.next1D(), rng.next2D());
+      const Vec2 uPoint = rng.next2D();
+      const Real uLight = rng.next1D();
+      const std::optional<LightSample> ls = lights.sample(ref, uLight, uPoint);
       REQUIRE(ls);
       const Real pb = bsdfPdf(surface, wo, frame.toLocal(ls->wi));
       CHECK(std::abs(powerHeuristic(ls->pdf, pb) + powerHeuristic(pb, ls->pdf) - 1) < kTolerance);
       // The BSDF strategy's direction, where it hits the light.
-      if (const std::optional<BsdfSample> bs = bsdfSample(surface, wo, rng.next2D(), rng.next1D())) {
+      const Real uChoice = rng.next1D();
+      const Vec2 u = rng.next2D();
+      if (const std::optional<BsdfSample> bs = bsdfSample(surface, wo, u, uChoice)) {
         const Vec3 wi = frame.toWorld(bs->wi);
         if (!hitsSphere(ref, wi, Vec3(0), radius))
           continue;

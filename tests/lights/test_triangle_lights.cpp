@@ -172,7 +172,9 @@ TEST_CASE("every sampled direction towards a triangle light hits it, and its pdf
     const Real x = rng.next1D(), y = rng.next1D(), z = rng.next1D();
     const Vec3 p0 = (Vec3(x, y, z) - Real(0.5)) * scale;
     const Vec3 p1 = p0 + sampleUniformSphere(rng.next2D()) * scale, p2 = p0 + sampleUniformSphere(rng.next2D()) * scale;
-    const Vec3 ref = p0 + sampleUniformSphere(rng.next2D()) * scale * std::pow(Real(10), Real(rng.next1D() * 4 - 2));
+    // (The distance is drawn before the direction, the order in which GCC drew them as arguments of one call.)
+    const Real distance = std::pow(Real(10), Real(rng.next1D() * 4 - 2));
+    const Vec3 ref = p0 + sampleUniformSphere(rng.next2D()) * scale * distance;
     const bool spherical = sampledBySolidAngle(triangleSolidAngle(ref, p0, p1, p2));
     (spherical ? bySolidAngle : byArea)++;
     for (int s = 0; s < 50; ++s) {
@@ -251,8 +253,14 @@ TEST_CASE("triangle lights are chosen by power beside spheres, and MIS's pdf mat
   Sampler rng(8, 0, 0, 0);
   int onTriangles = 0, visible = 0;
   for (int i = 0; i < 50000; ++i) {
-    const Vec3 ref(rng.next1D() * 4 - 2, rng.next1D() * 2 - 1, rng.next1D() * 4 - 2);
-    const std::optional<LightSample> ls = lights.sample(ref, rng.next1D(), rng.next2D());
+    // One draw a statement, in the order GCC drew them as arguments of one call (the last argument first).
+    const Real z = rng.next1D();
+    const Real y = rng.next1D();
+    const Real x = rng.next1D();
+    const Vec3 ref(x * 4 - 2, y * 2 - 1, z * 4 - 2);
+    const Vec2 uPoint = rng.next2D();
+    const Real uLight = rng.next1D();
+    const std::optional<LightSample> ls = lights.sample(ref, uLight, uPoint);
     REQUIRE(ls);
     if (ls->primitive < 2)
       continue;

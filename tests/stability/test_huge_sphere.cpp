@@ -63,8 +63,12 @@ template <class T> HugeSphereFigures measureHugeSphere(const Wall& wall, double 
   const T r = T(R);
   const TVec3<T> c = toT<T>(wall.centre);
   for (int i = 0; i < rays; ++i) {
-    const glm::dvec3 origin =
-        surface + height * side + rng.uniform(-50, 50) * tangent1 + rng.uniform(-50, 50) * tangent2;
+    // (One draw a statement, the second tangent's first: C++ leaves the order of an overloaded operator's operands
+    // unspecified, GCC evaluating them right to left and clang left to right; this is GCC's order from when both
+    // draws were in one expression, so the test keeps its rays.)
+    const double along2 = rng.uniform(-50, 50);
+    const double along1 = rng.uniform(-50, 50);
+    const glm::dvec3 origin = surface + height * side + along1 * tangent1 + along2 * tangent2;
     const glm::dvec3 dir = uniformHemisphere(rng, -side); // towards the surface
     if (glm::dot(dir, -side) < kMinCosine)
       continue;

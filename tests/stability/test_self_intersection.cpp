@@ -146,7 +146,11 @@ TEST_CASE("stability 4 (issue 2): no self-hits through Scene::intersect and spaw
   int naiveSelfHits = 0; // the same outward rays from the re-projected point without the offset, t_min = 0
   for (int attempt = 0; rays < kRays && attempt < 4 * kRays; ++attempt) {
     const double radius = rng.logUniform(1e-3, 1e4);
-    const glm::dvec3 centre = std::cbrt(rng.uniform()) * 1e4 * uniformSphere(rng);
+    // (Draws one statement at a time: C++ leaves the order of an overloaded operator's operands unspecified, GCC
+    // evaluating them right to left and clang left to right. Where two shared an expression, they are made in GCC's
+    // order, the right operand's first, so the test keeps its cases.)
+    const glm::dvec3 centreDirection = uniformSphere(rng);
+    const glm::dvec3 centre = std::cbrt(rng.uniform()) * 1e4 * centreDirection;
     scene.spheres[0] = Sphere{toT<Real>(centre), Real(radius), 0};
     const glm::dvec3 m = uniformSphere(rng);
     const glm::dvec3 from = centre + rng.uniform(1.5, 5) * radius * m;
@@ -163,7 +167,8 @@ TEST_CASE("stability 4 (issue 2): no self-hits through Scene::intersect and spaw
       naiveSelfHits += bool(scene.intersect(Ray{hit->point, out, 0, kInfinity}));
     }
 
-    const Vec3 light = hit->point + Real(rng.logUniform(1e-3, 1e4)) * unitT<Real>(uniformHemisphere(rng, n));
+    const Vec3 toLight = unitT<Real>(uniformHemisphere(rng, n));
+    const Vec3 light = hit->point + Real(rng.logUniform(1e-3, 1e4)) * toLight;
     if (glm::dot(light - hit->point, hit->normal) > 0)
       blockedShadowRays += scene.occluded(spawnRayTo(*hit, light));
 

@@ -6,9 +6,15 @@
 using namespace raylife;
 
 namespace {
+// A vector uniform in the cube [−scale, scale)³. Its coordinates are drawn one statement at a time, z first: C++ leaves
+// the order of a call's arguments unspecified (GCC evaluates them right to left, clang left to right), and z first is
+// GCC's order from when the three were one call's arguments, so the tests keep their cases.
 Vec3 randomVector(Sampler& s, Real scale)
 {
-  return Vec3(s.next1D() - Real(0.5), s.next1D() - Real(0.5), s.next1D() - Real(0.5)) * (2 * scale);
+  const Real z = s.next1D();
+  const Real y = s.next1D();
+  const Real x = s.next1D();
+  return Vec3(x - Real(0.5), y - Real(0.5), z - Real(0.5)) * (2 * scale);
 }
 const Real kTol = 64 * std::numeric_limits<Real>::epsilon();
 } // namespace

@@ -127,7 +127,12 @@ TEST_CASE("intersectSphere's early exits never change its answer")
     // Origins from deep inside to well outside, directions uniform.
     const Vec2 u = sampler.next2D();
     const Real z = 1 - 2 * u.x, s = std::sqrt(std::max(Real(0), 1 - z * z)), phi = 2 * kPi * u.y;
-    const Vec3 o = r * Real(2.5) * (Vec3(sampler.next1D(), sampler.next1D(), sampler.next1D()) - Real(0.5)) * Real(2);
+    // (One draw a statement, z first: C++ leaves the order of a call's arguments unspecified, GCC evaluating them
+    // right to left and clang left to right; z first is GCC's order from when the three were one call's arguments.)
+    const Real oz = sampler.next1D();
+    const Real oy = sampler.next1D();
+    const Real ox = sampler.next1D();
+    const Vec3 o = r * Real(2.5) * (Vec3(ox, oy, oz) - Real(0.5)) * Real(2);
     // A quarter of the rays pass through the centre, where the bounds are tight (√Δ = r) and only their
     // rounding margin keeps them below the root.
     Vec3 d = glm::normalize(Vec3(s * std::cos(phi), s * std::sin(phi), z));

@@ -193,7 +193,11 @@ int main(int argc, char** argv)
       Vec3 n = triangleNormal(p0, p1, p2);
       if (glm::dot(n, r.direction) > 0)
         n = -n;
-      const Vec3 dir = Frame::fromNormal(n).toWorld(sampleCosineHemisphere(Vec2(uniform(), uniform())));
+      // (One draw a statement, y first: C++ leaves the order of a call's arguments unspecified, GCC evaluating them
+      // right to left and clang left to right; y first is GCC's order from when both were one call's arguments.)
+      const Real uy = uniform();
+      const Real ux = uniform();
+      const Vec3 dir = Frame::fromNormal(n).toWorld(sampleCosineHemisphere(Vec2(ux, uy)));
       // tmin: Embree works in float, where the origin's rounding (about 1e-7 of the mesh's size) would let it find
       // the triangle the ray leaves; both queries skip the first 1e-5 of the mesh's size.
       bounceRays.push_back(Ray{offsetRayOrigin(tp.point, tp.error, n, dir), dir, Real(1e-5) * radius, kInfinity});
