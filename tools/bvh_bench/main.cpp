@@ -14,9 +14,9 @@
 //       where they hit: how much of a ray's time is spent waiting, which another ray's work can fill.
 //   bvh_bench embree [SCENE.json] [--repeat R] [--check]
 //       The yardstick: Mrays/s of raylife's closest-hit query through the scene (the primitives outside the tree,
-//       then the tree, as the chapters ask it) and of Embree 3's rtcIntersect1 on the same spheres (Embree's own
-//       spheres, in float) and the same camera and diffuse bounce rays, side by side, best of R interleaved runs;
-//       and how often the two find the same sphere. Built with the `embree` preset (./setup.sh --embree); --check
+//       then the tree, as the chapters ask it) and of Embree 3's, one ray at a time (rtcIntersect1) and eight
+//       (rtcIntersect8), on the same spheres (Embree's own, in float) and the same camera and diffuse bounce rays,
+//       side by side, best of R interleaved runs; and how often the two find the same sphere. Built with the `embree` preset (./setup.sh --embree); --check
 //       exits 1 when they agree on fewer than 99.9 % of the rays.
 //   bvh_bench heatmap [SCENE.json] --split sah|midpoint -o FILE.png|FILE.pfm [--width W] [--height H]
 //       The work per pixel (camera ray and shadow rays, as in chapter 9's right image) with a tree built by the
@@ -34,7 +34,6 @@
 #include "shading/shading.h"
 
 #include <algorithm>
-#include <cmath>
 #include <ctime>
 #include <cstdio>
 #include <cstdlib>
@@ -223,6 +222,8 @@ bool measureAgainstEmbree(const Scene& scene, const std::vector<Ray>& camera, co
                           int repeat, bool check)
 {
   RTCDevice device = rtcNewDevice("threads=1");
+  if (!device)
+    throw std::runtime_error("Embree could not start (rtcNewDevice failed)");
   RTCScene embree = rtcNewScene(device);
   RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_SPHERE_POINT);
   auto* points = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4,
