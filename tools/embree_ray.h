@@ -27,4 +27,15 @@ inline RTCRayHit embreeRayHit(const Ray& r, float tnear)
   return rh;
 }
 
+/// The nearest hit of `r` in `scene` by rtcIntersect1, from `tnear` on: hit.geomID is RTC_INVALID_GEOMETRY_ID for
+/// a miss, and ray.tfar the hit's distance otherwise.
+inline RTCRayHit embreeIntersect(RTCScene scene, const Ray& r, float tnear)
+{
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRayHit rh = embreeRayHit(r, tnear);
+  rtcIntersect1(scene, &context, &rh);
+  return rh;
+}
+
 } // namespace raylife

@@ -16,8 +16,8 @@
 //       The yardstick: Mrays/s of raylife's closest-hit query through the scene (the primitives outside the tree,
 //       then the tree, as the chapters ask it) and of Embree 3's, one ray at a time (rtcIntersect1) and eight
 //       (rtcIntersect8), on the same spheres (Embree's own, in float) and the same camera and diffuse bounce rays,
-//       side by side, best of R interleaved runs; and how often the two find the same sphere. Built with the `embree` preset (./setup.sh --embree); --check
-//       exits 1 when they agree on fewer than 99.9 % of the rays.
+//       side by side, best of R interleaved runs; and how often the two find the same sphere. Built with the
+//       `embree` preset (./setup.sh --embree); --check exits 1 when they agree on fewer than 99.9 % of the rays.
 //   bvh_bench heatmap [SCENE.json] --split sah|midpoint -o FILE.png|FILE.pfm [--width W] [--height H]
 //       The work per pixel (camera ray and shadow rays, as in chapter 9's right image) with a tree built by the
 //       given split; prints the tree's SAH cost and the mean work per pixel.
@@ -247,13 +247,8 @@ bool measureAgainstEmbree(const Scene& scene, const std::vector<Ray>& camera, co
   for (const Sphere& s : scene.spheres)
     largest = std::max(largest, s.radius);
   const float embreeStart = float(2e-6 * double(largest));
-  auto embreeHit = [&](const Ray& r) {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
-    RTCRayHit rh = embreeRayHit(r, std::max(float(r.tmin), embreeStart));
-    rtcIntersect1(embree, &context, &rh);
-    return rh;
-  };
+  auto tnear = [&](const Ray& r) { return std::max(float(r.tmin), embreeStart); };
+  auto embreeHit = [&](const Ray& r) { return embreeIntersect(embree, r, tnear(r)); };
 
   // Embree's packets: eight rays at a time through rtcIntersect8, in the order given (camera rays along a row of
   // pixels: coherent; bounce rays from neighbouring pixels: near each other, in random directions). What tracing
@@ -276,7 +271,7 @@ bool measureAgainstEmbree(const Scene& scene, const std::vector<Ray>& camera, co
         rh.ray.dir_x[k] = float(r.direction.x);
         rh.ray.dir_y[k] = float(r.direction.y);
         rh.ray.dir_z[k] = float(r.direction.z);
-        rh.ray.tnear[k] = std::max(float(r.tmin), embreeStart);
+        rh.ray.tnear[k] = tnear(r);
         rh.ray.tfar[k] = std::numeric_limits<float>::infinity();
         rh.ray.mask[k] = ~0u;
         rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;

@@ -249,13 +249,7 @@ int main(int argc, char** argv)
     rtcCommitScene(scene);
     std::printf("Embree BVH: built in %.2f s (one thread, default quality; %.2f s of CPU time)\n",
                 seconds(embreeStart), cpuSeconds() - embreeCpuStart);
-    auto embreeHit = [&](const Ray& r) {
-      RTCIntersectContext context;
-      rtcInitIntersectContext(&context);
-      RTCRayHit rh = embreeRayHit(r, float(r.tmin));
-      rtcIntersect1(scene, &context, &rh);
-      return rh;
-    };
+    auto embreeHit = [&](const Ray& r) { return embreeIntersect(scene, r, float(r.tmin)); };
     auto theirs = [&](const Ray& r) { sink += embreeHit(r).hit.geomID != RTC_INVALID_GEOMETRY_ID; };
     const double theirCamera = raysPerSecond(cameraRays, o.budget, theirs);
     const double theirBounce = raysPerSecond(bounceRays, o.budget, theirs);
