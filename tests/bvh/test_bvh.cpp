@@ -79,8 +79,9 @@ Disagreements compare(const std::vector<Sphere>& spheres, std::size_t rays, std:
   return d;
 }
 
-void checkAgreement(const std::vector<Sphere>& spheres, std::size_t rays, std::uint64_t seed, Real extent)
+void checkAgreement(const std::vector<Sphere>& spheres, std::size_t allRays, std::uint64_t seed, Real extent)
 {
+  const std::size_t rays = raysToSend(allRays);
   const Disagreements d = compare(spheres, rays, seed, extent);
   INFO("first disagreement: " << d.first);
   CHECK(d.closest == 0);

@@ -125,8 +125,9 @@ Agreement compare(const Mixed& s, std::size_t rays, std::uint64_t seed, Real ext
   return a;
 }
 
-void checkAgreement(const Mixed& s, std::size_t rays, std::uint64_t seed, Real extent)
+void checkAgreement(const Mixed& s, std::size_t allRays, std::uint64_t seed, Real extent)
 {
+  const std::size_t rays = raysToSend(allRays);
   const Agreement a = compare(s, rays, seed, extent);
   INFO(a.rays << " rays, " << a.hits << " hits (" << a.triangleHits << " on triangles); first disagreement: "
               << a.first);
