@@ -41,6 +41,56 @@ Vec2 filmPoint(Sampler& sampler, const Camera& camera)
   return Vec2(x * Real(camera.width()), y * Real(camera.height()));
 }
 
+// The start of both tests' camera subpaths: a primary ray through a random film point that meets the wall at z1, and
+// a cosine-weighted bounce from z1 on the side the ray came from. Nothing when the primary ray misses the wall.
+struct CameraStart {
+  Ray primary;
+  Hit z1;
+  Frame f1;
+  Vec3 wo1, wi1; // local to f1
+  Ray bounce;
+};
+
+std::optional<CameraStart> cameraStart(const Scene& scene, const Camera& camera, Sampler& sampler)
+{
+  const Vec2 film = filmPoint(sampler, camera);
+  const Ray primary = camera.ray(film);
+  const std::optional<Hit> z1 = scene.intersect(primary);
+  if (!z1 || z1->primitive != 0)
+    return std::nullopt;
+  const Frame f1 = Frame::fromNormal(z1->normal);
+  const Vec3 wo1 = f1.toLocal(-primary.direction);
+  const Vec3 wi1 = sampleCosineHemisphere(sampler.next2D()) * (wo1.z < 0 ? Real(-1) : Real(1));
+  return CameraStart{primary, *z1, f1, wo1, wi1, spawnRay(*z1, f1.toWorld(wi1))};
+}
+
+// The camera subpath's running sums at z1, as the chapter starts them.
+SubpathState stateAtZ1(const Context& c, const Camera& camera, const CameraStart& start)
+{
+  SubpathState at;
+  at.dVCM = mis(c.lightPaths / primaryRayPdf(camera, -glm::dot(camera.basis().w, start.primary.direction)));
+  arrive(at, start.z1.t, std::abs(glm::dot(start.z1.normal, start.primary.direction)));
+  return at;
+}
+
+// The weight of strategy (s,1), read back from the splat that connectToCamera left at z1's pixel: the splat divided
+// by what the weight multiplies there (the wall's BSDF from the eye to `towardsPrevious`, the light subpath's
+// direction at z1, over the camera's pdf in area measure per light path).
+double splatWeight(const Context& c, SplatSums& sums, const Camera& camera, const CameraStart& start,
+                   const Material& wall, const Vec3& towardsPrevious)
+{
+  const Hit& z1 = start.z1;
+  const std::optional<Vec2> pixel = camera.project(z1.point);
+  REQUIRE(pixel);
+  const Color splat = sums.take(std::size_t(int(pixel->y)) * std::size_t(camera.width()) + std::size_t(int(pixel->x)));
+  const Vec3 toEye = unit(camera.eye() - z1.point);
+  const Vec3 toCamera = camera.eye() - z1.point;
+  const Real cameraPdfA = primaryRayPdf(camera, glm::dot(camera.basis().w, toEye)) *
+                          std::abs(glm::dot(z1.normal, toEye)) / glm::dot(toCamera, toCamera);
+  return splat.r /
+         (bsdfEval(wall, start.f1.toLocal(toEye), start.f1.toLocal(towardsPrevious)).r * cameraPdfA / c.lightPaths);
+}
+
 } // namespace
 
 TEST_CASE("the MIS weights of the strategies that make a path sum to one (random paths of 3 edges)")
@@ -58,24 +108,20 @@ TEST_CASE("the MIS weights of the strategies that make a path sum to one (random
     Sampler sampler(7, 1, 2, trial);
     const Context c{scene, lights, strategies, splats, sampler, INT_MAX, Real(camera.width() * camera.height())};
     // The camera subpath: a primary ray, z1 on the wall, a diffuse bounce to z2 on the wall.
-    const Vec2 film = filmPoint(sampler, camera);
-    const Ray primary = camera.ray(film);
-    const std::optional<Hit> z1 = scene.intersect(primary);
-    if (!z1 || z1->primitive != 0)
+    const std::optional<CameraStart> start = cameraStart(scene, camera, sampler);
+    if (!start)
       continue;
-    const Frame f1 = Frame::fromNormal(z1->normal);
-    const Vec3 wo1 = f1.toLocal(-primary.direction);
-    const Vec3 wi1 = sampleCosineHemisphere(sampler.next2D()) * (wo1.z < 0 ? Real(-1) : Real(1));
-    const Ray bounce = spawnRay(*z1, f1.toWorld(wi1));
+    const Hit* z1 = &start->z1;
+    const Frame& f1 = start->f1;
+    const Vec3 wo1 = start->wo1, wi1 = start->wi1;
+    const Ray& bounce = start->bounce;
     const std::optional<Hit> z2 = scene.intersect(bounce);
     if (!z2 || z2->primitive != 0)
       continue;
     const Frame f2 = Frame::fromNormal(z2->normal);
     const Vec3 wo2 = f2.toLocal(-bounce.direction);
 
-    SubpathState atZ1;
-    atZ1.dVCM = mis(c.lightPaths / primaryRayPdf(camera, -glm::dot(camera.basis().w, primary.direction)));
-    arrive(atZ1, z1->t, std::abs(glm::dot(z1->normal, primary.direction)));
+    SubpathState atZ1 = stateAtZ1(c, camera, *start);
     SubpathState atZ2 = atZ1;
     leave(atZ2, diffuseSample(wall, wo1, wi1), bsdfPdf(wall, wi1, wo1));
     arrive(atZ2, z2->t, std::abs(glm::dot(z2->normal, bounce.direction)));
@@ -125,16 +171,7 @@ TEST_CASE("the MIS weights of the strategies that make a path sum to one (random
     arrive(y2.state, std::sqrt(r2), std::abs(wiZ1.z));
     y2.state.beta = Color(1);
     connectToCamera(c, y2);
-    const std::optional<Vec2> pixel = camera.project(z1->point);
-    REQUIRE(pixel);
-    const Color splat =
-        sums.take(std::size_t(int(pixel->y)) * std::size_t(camera.width()) + std::size_t(int(pixel->x)));
-    const Vec3 toEye = unit(camera.eye() - z1->point);
-    const Real eyeCos = std::abs(glm::dot(z1->normal, toEye));
-    const Real cameraPdfA = primaryRayPdf(camera, glm::dot(camera.basis().w, toEye)) * eyeCos /
-                            glm::dot(camera.eye() - z1->point, camera.eye() - z1->point);
-    const double w31 =
-        splat.r / (bsdfEval(wall, f1.toLocal(toEye), f1.toLocal(unit(d12))).r * cameraPdfA / c.lightPaths);
+    const double w31 = splatWeight(c, sums, camera, *start, wall, unit(d12));
 
     const double sum = w04 + w13 + w22 + w31;
     INFO("trial " << trial << ": " << w04 << " + " << w13 << " + " << w22 << " + " << w31);
@@ -175,15 +212,12 @@ TEST_CASE("the MIS weights sum to one on paths through a mirror (a delta vertex:
     Sampler sampler(11, 3, 4, trial);
     const Context c{scene, lights, strategies, splats, sampler, INT_MAX, Real(camera.width() * camera.height())};
     // The camera subpath: z1 on the wall, a diffuse bounce that meets the mirror at m, its reflection the lamp at y0.
-    const Vec2 film = filmPoint(sampler, camera);
-    const Ray primary = camera.ray(film);
-    const std::optional<Hit> z1 = scene.intersect(primary);
-    if (!z1 || z1->primitive != 0)
+    const std::optional<CameraStart> start = cameraStart(scene, camera, sampler);
+    if (!start)
       continue;
-    const Frame f1 = Frame::fromNormal(z1->normal);
-    const Vec3 wo1 = f1.toLocal(-primary.direction);
-    const Vec3 wi1 = sampleCosineHemisphere(sampler.next2D()) * (wo1.z < 0 ? Real(-1) : Real(1));
-    const Ray toMirror = spawnRay(*z1, f1.toWorld(wi1));
+    const Hit* z1 = &start->z1;
+    const Vec3 wo1 = start->wo1, wi1 = start->wi1;
+    const Ray& toMirror = start->bounce;
     const std::optional<Hit> m = scene.intersect(toMirror);
     if (!m || m->primitive != 2)
       continue;
@@ -200,9 +234,7 @@ TEST_CASE("the MIS weights sum to one on paths through a mirror (a delta vertex:
       continue;
 
     // (0,4): the camera subpath's running sums through z1 and the mirror, then the lamp hit.
-    SubpathState camera4;
-    camera4.dVCM = mis(c.lightPaths / primaryRayPdf(camera, -glm::dot(camera.basis().w, primary.direction)));
-    arrive(camera4, z1->t, std::abs(glm::dot(z1->normal, primary.direction)));
+    SubpathState camera4 = stateAtZ1(c, camera, *start);
     leave(camera4, diffuseSample(wall, wo1, wi1), bsdfPdf(wall, wi1, wo1));
     arrive(camera4, m->t, std::abs(woM.z));
     leave(camera4, *reflect, reflect->pdf);
@@ -229,16 +261,7 @@ TEST_CASE("the MIS weights sum to one on paths through a mirror (a delta vertex:
     light.beta = Color(1);
     LightVertex y2{*z1, unit(m->point - z1->point), light, 3};
     connectToCamera(c, y2);
-    const std::optional<Vec2> pixel = camera.project(z1->point);
-    REQUIRE(pixel);
-    const Color splat =
-        sums.take(std::size_t(int(pixel->y)) * std::size_t(camera.width()) + std::size_t(int(pixel->x)));
-    const Vec3 toEye = unit(camera.eye() - z1->point);
-    const Real cameraPdfA = primaryRayPdf(camera, glm::dot(camera.basis().w, toEye)) *
-                            std::abs(glm::dot(z1->normal, toEye)) /
-                            glm::dot(camera.eye() - z1->point, camera.eye() - z1->point);
-    const double w31 = splat.r / (bsdfEval(wall, f1.toLocal(toEye), f1.toLocal(y2.toPrevious)).r * cameraPdfA /
-                                  c.lightPaths);
+    const double w31 = splatWeight(c, sums, camera, *start, wall, y2.toPrevious);
 
     INFO("trial " << trial << ": " << w04 << " + " << w31);
     CHECK(w04 + w31 == Approx(1).epsilon(1e-6));
