@@ -83,8 +83,8 @@ double splatWeight(const Context& c, SplatSums& sums, const Camera& camera, cons
   const std::optional<Vec2> pixel = camera.project(z1.point);
   REQUIRE(pixel);
   const Color splat = sums.take(std::size_t(int(pixel->y)) * std::size_t(camera.width()) + std::size_t(int(pixel->x)));
-  const Vec3 toEye = unit(camera.eye() - z1.point);
   const Vec3 toCamera = camera.eye() - z1.point;
+  const Vec3 toEye = unit(toCamera);
   const Real cameraPdfA = primaryRayPdf(camera, glm::dot(camera.basis().w, toEye)) *
                           std::abs(glm::dot(z1.normal, toEye)) / glm::dot(toCamera, toCamera);
   return splat.r /
