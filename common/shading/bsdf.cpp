@@ -124,7 +124,7 @@ Real phongExponent(Real roughness) { return 2 / (roughness * roughness) - 2; }
 
 Color phongEval(const Color& albedo, Real exponent, const Vec3& wo, const Vec3& wi)
 {
-  if (!sameSide(wo, wi))
+  if (!(exponent <= kMaxPhongExponent) || !sameSide(wo, wi))
     return Color(0);
   const Real cosAlpha = glm::dot(wi, reflectLocal(wo));
   if (cosAlpha <= 0)
@@ -134,7 +134,7 @@ Color phongEval(const Color& albedo, Real exponent, const Vec3& wo, const Vec3& 
 
 Real phongPdf(Real exponent, const Vec3& wo, const Vec3& wi)
 {
-  if (!sameSide(wo, wi))
+  if (!(exponent <= kMaxPhongExponent) || !sameSide(wo, wi))
     return 0;
   return phongLobePdf(glm::dot(wi, reflectLocal(wo)), exponent);
 }
@@ -145,6 +145,8 @@ std::optional<BsdfSample> phongSample(const Color& albedo, Real exponent, const 
     return std::nullopt;
   // Sample the lobe around the mirror direction r, in r's own frame, then rotate it into the shading frame.
   const Vec3 r = reflectLocal(wo);
+  if (!(exponent <= kMaxPhongExponent)) // smooth: the mirror the lobe narrows to, f·|cosθi|/pdf = ρ_s |cosθi|
+    return BsdfSample{r, albedo, 1, true};
   const Vec3 wi = glm::normalize(Frame::fromNormal(r).toWorld(samplePhongLobe(u, exponent)));
   // Below the surface: no light (the pdf keeps its mass there, so the estimator stays unbiased).
   const Real pdf = phongPdf(exponent, wo, wi);

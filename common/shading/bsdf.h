@@ -89,19 +89,32 @@ std::optional<BsdfSample> dielectricSample(const Color& tint, Real eta, const Ve
 // ---- Glossy: normalised (modified) Phong ---------------------------------------------------------------------
 
 /// The Phong exponent n for a roughness r in (0, 1]: n = 2/r² − 2, so r = 1 is Lambertian (n = 0) and the
-/// lobe narrows as r → 0 (the mapping makes the lobe's width grow about linearly with r).
+/// lobe narrows as r → 0 (the mapping makes the lobe's width grow about linearly with r). Infinite below
+/// r ≈ 10⁻¹⁵⁴ in double (r² is 0), which the Phong functions below take as the mirror (kMaxPhongExponent).
 Real phongExponent(Real roughness);
+
+/// Below this roughness a glossy material is the mirror its lobe narrows to, as a metal is below kMinGgxAlpha (the
+/// same 10⁻³). The lobe is then about r = 10⁻³ radians wide, less than a pixel of the chapters' images spans (2·10⁻³
+/// for 320 pixels over 40°), and lower still its arithmetic breaks: at n ≈ 10¹⁸ (r ≈ 10⁻⁹) a cosine that rounds to
+/// just above 1, raised to n, overflows, so f and the pdf are both infinite and their ratio is NaN.
+inline constexpr Real kMinPhongRoughness = Real(1e-3);
+/// The largest Phong exponent the functions below treat as a lobe, phongExponent(kMinPhongRoughness) (2·10⁶ − 2).
+/// Above it (or infinite): the delta lobe in the mirror direction with weight ρ_s |cosθi|, the limit of the lobe's
+/// weight ρ_s (n + 2)/(n + 1) cosθi as n → ∞, so the material's look does not jump at the threshold.
+inline constexpr Real kMaxPhongExponent = 2 / (kMinPhongRoughness * kMinPhongRoughness) - 2;
 
 /// The normalised modified Phong BRDF (Lafortune and Willems 1994): f = ρ_s (n + 2)/(2π) cosⁿα, with α the
 /// angle between wi and the mirror direction of wo, on wo's side only. Symmetric in wo and wi (reciprocal), and
 /// its directional albedo is at most ρ_s (exactly ρ_s at normal incidence), so it conserves energy.
-/// @param albedo ρ_s in [0, 1] per channel. @param exponent n ≥ 0.
-/// @param wo,wi unit directions in the local frame (towards the viewer, towards the light).
+/// @param albedo ρ_s in [0, 1] per channel. @param exponent n ≥ 0 (above kMaxPhongExponent the mirror: a delta,
+/// so 0 here). @param wo,wi unit directions in the local frame (towards the viewer, towards the light).
 Color phongEval(const Color& albedo, Real exponent, const Vec3& wo, const Vec3& wi);
-/// The pdf of phongSample: (n + 1)/(2π) cosⁿα on wo's side, 0 on the other.
+/// The pdf of phongSample: (n + 1)/(2π) cosⁿα on wo's side, 0 on the other; 0 for the mirror (n above
+/// kMaxPhongExponent).
 Real phongPdf(Real exponent, const Vec3& wo, const Vec3& wi);
 /// A direction from the cosⁿα lobe around the mirror direction; nothing when it falls below the surface
-/// (the estimator then counts the sample as 0, which keeps it unbiased: the pdf is not renormalised).
+/// (the estimator then counts the sample as 0, which keeps it unbiased: the pdf is not renormalised). Above
+/// kMaxPhongExponent: the mirror direction, as a delta lobe with weight ρ_s |cosθi|.
 std::optional<BsdfSample> phongSample(const Color& albedo, Real exponent, const Vec3& wo, Vec2 u);
 
 // ---- Metal: the GGX (Trowbridge–Reitz) microfacet BRDF -------------------------------------------------------

@@ -13,7 +13,7 @@ enum class MaterialType {
   Diffuse, ///< Lambertian: reflects equally in all directions; `color` is the albedo ρ.
   Mirror,  ///< Ideal specular reflection, tinted by `color`.
   Glass,   ///< Ideal dielectric: Fresnel-weighted reflection and refraction with index `ior`, tinted by `color`.
-  Glossy,  ///< Rough reflection, `roughness` in (0, 1]; `color` is the specular albedo.
+  Glossy,  ///< Rough reflection, `roughness` in (0, 1] (below kMinPhongRoughness a mirror); `color` the albedo.
   /// A rough conductor: the GGX (Trowbridge–Reitz) microfacet BRDF with α = `roughness` in [0, 1], and Schlick's
   /// Fresnel with `color` the reflectance at normal incidence F0 (chapter 11).
   Metal,

@@ -161,6 +161,55 @@ TEST_CASE("energy: the glossy BRDF's directional albedo is at most 1 (and exactl
     }
 }
 
+TEST_CASE("glossy: as roughness goes to 0 the lobe becomes the mirror of weight ρ cosθ, and stays finite below")
+{
+  // The lobe's weight is ρ (n + 2)/(n + 1) cosθi, so its limit is the mirror with weight ρ cosθo. Below
+  // kMinPhongRoughness raylife takes that limit; without it, roughness 1e-10 gave f = pdf = ∞ and a NaN weight
+  // (a cosine rounded above 1, raised to n ≈ 2·10²⁰), and below 1e-154 n itself is infinite.
+  const Color albedo(Real(0.9), Real(0.6), Real(0.3));
+  Material glossy;
+  glossy.type = MaterialType::Glossy;
+  glossy.color = albedo;
+  for (double theta : {0.0, 0.6, 1.2}) {
+    const Vec3 wo = polar(theta), mirror(-wo.x, -wo.y, wo.z);
+    // Just above the threshold: still the lobe, a milliradian wide, with the limit's mean weight.
+    const Real r = kMinPhongRoughness * Real(1.01);
+    int deltas = 0, missing = 0;
+    double widest = 0;
+    const Estimate weight = estimate(20000, 23, [&](Sampler& rng) {
+      const auto s = phongSample(albedo, phongExponent(r), wo, rng.next2D());
+      if (!s) {
+        ++missing;
+        return 0.0;
+      }
+      deltas += s->specular;
+      widest = std::max(widest, std::acos(std::min(1.0, double(glm::dot(s->wi, mirror)))));
+      return double(s->weight().g);
+    });
+    INFO("theta_o " << theta << ": mean weight " << weight.mean << " ± " << weight.stdError << ", widest angle "
+                    << widest);
+    CHECK(missing == 0);
+    CHECK(deltas == 0);
+    CHECK(widest < 5 * double(r));
+    CHECK(weight.mean == Approx(double(albedo.g) * wo.z).epsilon(0.002));
+    // At and below it: the mirror, finite down to the smallest roughness a scene can give.
+    for (Real tiny : {kMinPhongRoughness * Real(0.99), Real(1e-6), Real(1e-10), Real(1e-30),
+                      std::numeric_limits<Real>::denorm_min()}) {
+      INFO("roughness " << tiny);
+      glossy.roughness = tiny;
+      const auto s = bsdfSample(glossy, wo, Vec2(Real(0.3), Real(0.7)), Real(0.5));
+      REQUIRE(s);
+      CHECK(s->specular);
+      CHECK(glm::length(s->wi - mirror) < 1e-6);
+      const Color w = s->weight();
+      CHECK(std::isfinite(w.r));
+      CHECK(w.b == Approx(double(albedo.b) * wo.z).epsilon(1e-5));
+      CHECK(bsdfEval(glossy, wo, mirror) == Color(0));
+      CHECK(bsdfPdf(glossy, wo, mirror) == 0);
+    }
+  }
+}
+
 TEST_CASE("energy: glass splits light into F reflected and 1 − F refracted, chosen with those probabilities")
 {
   const Color tint(1);
