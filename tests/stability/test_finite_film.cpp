@@ -73,7 +73,7 @@ TEST_CASE("stability 10: every stress scene renders in chapters 5-9 with no bad 
 TEST_CASE("stability 10: every stress scene renders in chapters 10-13 with no bad sample", "[stability][finite]")
 {
   // Meshes, the lens and shutter, ambient occlusion and BDPT, on the same scenes: among them smooth_limits.json,
-  // whose glossy spheres of roughness 1e-10 and 5e-324 gave NaN in every Monte Carlo chapter before glossy took
+  // whose glossy spheres of roughness 1e-10 and 1e-30 gave NaN in every Monte Carlo chapter before glossy took
   // the mirror's limit below kMinPhongRoughness.
   renderEveryStressScene({"step10_meshes", "step11_distributed", "step12_ambient_occlusion", "step13_bdpt"},
                          "--width 48 --height 36 --spp 4", "10-13");
