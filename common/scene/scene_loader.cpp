@@ -382,6 +382,10 @@ std::optional<TextFault> scanText(std::string_view text)
 }
 
 // ---- Reading checked values -------------------------------------------------------------------------------
+
+// Within raylife's bound on a scene's size (kMaxSceneExtent); false for NaN.
+bool withinExtent(Real v) { return std::abs(double(v)) <= kMaxSceneExtent; }
+bool withinExtent(const Vec3& p) { return withinExtent(p.x) && withinExtent(p.y) && withinExtent(p.z); }
 class Reader {
 public:
   Reader(std::string_view text, const std::string& file) : text_(text), file_(file) {}
@@ -494,6 +498,16 @@ public:
     return Vec3(number(j[0], path / 0), number(j[1], path / 1), number(j[2], path / 2));
   }
 
+  // A point of the scene's geometry: [x, y, z], each within ±kMaxSceneExtent.
+  Vec3 point(const Json& j, const Path& path) const
+  {
+    const Vec3 p = vec3(j, path);
+    for (std::size_t c = 0; c < 3; ++c)
+      if (!withinExtent(p[int(c)]))
+        fail(path / c, "a coordinate must lie within ±1e50 (raylife's bound on a scene's size), got " + j[c].dump());
+    return p;
+  }
+
   // A colour with every channel in [0, maxChannel].
   Color color(const Json& j, const Path& path, Real maxChannel, const char* what) const
   {
@@ -537,8 +551,8 @@ void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& ca
 {
   r.object(j, path);
   r.onlyKeys(j, path, {"eye", "focal", "up", "vfov", "width", "height", "aperture", "focus"});
-  cam.eye = r.vec3(r.required(j, path, "eye"), path / "eye");
-  cam.focal = r.vec3(r.required(j, path, "focal"), path / "focal");
+  cam.eye = r.point(r.required(j, path, "eye"), path / "eye");
+  cam.focal = r.point(r.required(j, path, "focal"), path / "focal");
   if (j.contains("up"))
     cam.up = r.vec3(j["up"], path / "up");
   if (j.contains("vfov")) {
@@ -555,14 +569,13 @@ void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& ca
                                " pixels is larger than the " + std::to_string(kMaxPixels) + " pixels raylife allows");
   if (j.contains("aperture")) {
     cam.aperture = r.number(j["aperture"], path / "aperture");
-    if (!(cam.aperture >= 0 && cam.aperture < kInfinity))
-      r.fail(path / "aperture", "the aperture (the lens radius) must be 0 or more and finite, got " +
-                                    j["aperture"].dump());
+    if (!(cam.aperture >= 0 && withinExtent(cam.aperture)))
+      r.fail(path / "aperture", "the aperture (the lens radius) must lie in [0, 1e50], got " + j["aperture"].dump());
   }
   if (j.contains("focus")) {
     cam.focus = r.number(j["focus"], path / "focus");
-    if (!(cam.focus > 0 && cam.focus < kInfinity))
-      r.fail(path / "focus", "the focus distance must be greater than 0 and finite, got " + j["focus"].dump());
+    if (!(cam.focus > 0 && withinExtent(cam.focus)))
+      r.fail(path / "focus", "the focus distance must be greater than 0 and at most 1e50, got " + j["focus"].dump());
   }
   auto basis = makeCameraBasis(cam.eye, cam.focal, cam.up);
   if (auto* error = std::get_if<BasisError>(&basis))
@@ -611,6 +624,8 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
     m.ior = r.number(j["ior"], path / "ior");
     if (m.ior < 1)
       r.fail(path / "ior", "the index of refraction must be at least 1, got " + j["ior"].dump());
+    if (!(m.ior <= kMaxIor))
+      r.fail(path / "ior", "the index of refraction must be at most 1e50 (diamond's is 2.42), got " + j["ior"].dump());
   }
   if (j.contains("roughness")) {
     m.roughness = r.number(j["roughness"], path / "roughness");
@@ -682,7 +697,7 @@ MeshData readInlineMesh(const Reader& r, const Json& j, const Path& path)
     r.fail(path / "vertices", "expected an array of at least 3 vertices [x, y, z], got " + Reader::describe(vertices));
   data.positions.reserve(vertices.size());
   for (std::size_t v = 0; v < vertices.size(); ++v)
-    data.positions.push_back(r.vec3(vertices[v], path / "vertices" / v));
+    data.positions.push_back(r.point(vertices[v], path / "vertices" / v));
   const Json& triangles = r.required(j, path, "triangles");
   if (!triangles.is_array() || triangles.empty())
     r.fail(path / "triangles", "expected an array of at least one triangle [i, j, k], got " +
@@ -779,6 +794,15 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
     if (!isFinite(p))
       r.fail(path / "transform", "the transform takes a vertex beyond the range of " +
                                      std::string(sizeof(Real) == 4 ? "float" : "double"));
+    // An inline vertex was checked as it was read, and a file's are floats (below 3.4e38): only the transform
+    // takes one past the bound.
+    if (!withinExtent(p)) {
+      // Named by where it lands: a file's vertices may be renumbered by the reader.
+      char at[96];
+      std::snprintf(at, sizeof at, "(%.6g, %.6g, %.6g)", double(p.x), double(p.y), double(p.z));
+      r.fail(path / "transform", std::string("the transform takes a vertex to ") + at +
+                                     ", beyond ±1e50 (raylife's bound on a scene's size)");
+    }
   }
   mesh.firstTriangle = std::uint32_t(scene.triangles.size());
   std::size_t degenerate = 0;
@@ -939,16 +963,19 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
       const Json& js = r.object(spheres[i], p);
       r.onlyKeys(js, p, {"center", "radius", "material", "velocity"});
       Sphere s;
-      s.center = r.vec3(r.required(js, p, "center"), p / "center");
+      s.center = r.point(r.required(js, p, "center"), p / "center");
       s.radius = r.number(r.required(js, p, "radius"), p / "radius");
       if (!(s.radius > 0))
         r.fail(p / "radius", "the radius must be greater than 0, got " + js["radius"].dump());
+      if (!withinExtent(s.radius))
+        r.fail(p / "radius", "the radius must be at most 1e50 (raylife's bound on a scene's size), got " +
+                                 js["radius"].dump());
       s.material = material(js, p);
       if (js.contains("velocity")) {
         s.velocity = r.vec3(js["velocity"], p / "velocity");
-        if (!isFinite(s.center + s.velocity))
-          r.fail(p / "velocity", "the sphere's centre at the end of the shutter interval (center + velocity) is not "
-                                 "finite");
+        if (!withinExtent(s.center + s.velocity))
+          r.fail(p / "velocity", "the sphere's centre at the end of the shutter interval (center + velocity) lies "
+                                 "beyond ±1e50 (raylife's bound on a scene's size)");
       }
       scene.spheres.push_back(s);
     }
@@ -983,7 +1010,7 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
         r.fail(p / "type", "unknown light type '" + shorten(type) + "'; known types: 'point' (for area lights, give a "
                                                             "sphere a material with \"emission\")");
       PointLight l;
-      l.position = r.vec3(r.required(jl, p, "position"), p / "position");
+      l.position = r.point(r.required(jl, p, "position"), p / "position");
       l.intensity = r.color(r.required(jl, p, "intensity"), p / "intensity", kInfinity, "intensity");
       scene.lights.push_back(l);
     }

@@ -13,7 +13,8 @@ namespace raylife::fuzz {
 /// Feeds `text` to parseScene (as file "fuzz.json") and checks what comes back. A SceneError must be one
 /// printable line that starts with "fuzz.json:"; a scene that loads must satisfy every invariant the loader
 /// promises (at least one sphere or triangle, radii > 0, colours ≥ 0 and finite, material indices in range, mesh
-/// indices in range, finite vertices, no degenerate triangle, a valid camera).
+/// indices in range, geometry and the index of refraction within kMaxSceneExtent and kMaxIor, no degenerate
+/// triangle, a valid camera).
 /// Any other exception escapes: that is a bug, and the caller reports it.
 /// @return "" when all is well, otherwise what was wrong.
 std::string checkSceneText(std::string_view text);

@@ -237,10 +237,27 @@ TEST_CASE("bad mesh entries and bad mesh files are refused with one message nami
       {"an unknown material", "", "",
        R"({ "material": "whte", "vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 2]] })",
        "undefined material 'whte' (did you mean 'white'?)"},
+
+      {"an inline vertex beyond the bound on a scene's size", "", "",
+       R"({ "material": "white", "vertices": [[0,0,0],[0,-1e250,0],[0,1,0]], "triangles": [[0, 1, 2]] })",
+       "/meshes/0/vertices/1/1: a coordinate must lie within ±1e50 (raylife's bound on a scene's size), got -1e+250"},
+      {"a transform that takes a vertex beyond the bound on a scene's size", "", "",
+       R"({ "material": "white", "vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 2]],
+            "transform": { "scale": 2e50 } })",
+       "/meshes/0/transform: the transform takes a vertex to (2e+50, 0, 0), beyond ±1e50 (raylife's bound on a "
+       "scene's size)"},
       {"smooth not a boolean", "", "",
        R"({ "material": "white", "smooth": 1, "vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 2]] })",
        "/meshes/0/smooth: expected true or false"},
   };
+  // A file's vertices are read as float (at most 3.4e38), so only a transform takes one past the bound.
+  write(dir / "far.obj", "v 0 0 0\nv 1e38 0 0\nv 0 1 0\nf 1 2 3\n");
+  CHECK(failure(sceneWith(R"({ "file": "far.obj", "material": "white", "transform": { "translate": [0, 0, 0] } })"),
+                (dir / "scene.json").string()) == "");
+  CHECK(failure(sceneWith(R"({ "file": "far.obj", "material": "white", "transform": { "scale": 1e13 } })"),
+                (dir / "scene.json").string())
+            .find("/meshes/0/transform: the transform takes a vertex to (1e+51, 0, 0), beyond ±1e50 (raylife's "
+                  "bound on a scene's size)") != std::string::npos);
   fs::create_directories(dir / "folder.obj");
   for (const Bad& c : cases) {
     std::string entry = c.entry;
