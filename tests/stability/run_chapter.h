@@ -23,6 +23,15 @@ struct ChapterRun {
   long long badSamples = -1; ///< RenderResult::badSamples from its --stats file; −1 if unreadable.
 };
 
+/// The whole of a text file ("" if it cannot be read).
+inline std::string readText(const std::string& path)
+{
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 /// Runs `binary` (a chapter, e.g. "step04_shadows") on `scene` with one thread, writing into the test's output
 /// folder under the file stem `tag` (unique per test, as ctest runs tests in parallel).
 /// `extra` is appended to the command line (e.g. a smaller size and spp for the Monte Carlo chapters).
@@ -38,10 +47,7 @@ inline ChapterRun runChapter(const std::string& binary, const std::string& scene
   if (run.status != 0)
     return run;
   run.image = readPfm(stem + ".pfm");
-  std::ifstream stats(stem + ".json");
-  std::stringstream text;
-  text << stats.rdbuf();
-  const std::string json = text.str();
+  const std::string json = readText(stem + ".json");
   const std::string key = "\"bad_samples\": ";
   if (const std::size_t at = json.find(key); at != std::string::npos)
     run.badSamples = std::atoll(json.c_str() + at + key.size());
