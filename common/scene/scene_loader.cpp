@@ -386,6 +386,7 @@ std::optional<TextFault> scanText(std::string_view text)
 // Within raylife's bound on a scene's size (kMaxSceneExtent); false for NaN.
 bool withinExtent(Real v) { return std::abs(double(v)) <= kMaxSceneExtent; }
 bool withinExtent(const Vec3& p) { return withinExtent(p.x) && withinExtent(p.y) && withinExtent(p.z); }
+
 class Reader {
 public:
   Reader(std::string_view text, const std::string& file) : text_(text), file_(file) {}

@@ -94,9 +94,9 @@ std::optional<BsdfSample> dielectricSample(const Color& tint, Real eta, const Ve
 Real phongExponent(Real roughness);
 
 /// Below this roughness a glossy material is the mirror its lobe narrows to, as a metal is below kMinGgxAlpha (the
-/// same 10⁻³). The lobe is then about r = 10⁻³ radians wide, less than a pixel of the chapters' images spans (2·10⁻³
-/// for 320 pixels over 40°), and lower still its arithmetic breaks: at n ≈ 10¹⁸ (r ≈ 10⁻⁹) a cosine that rounds to
-/// just above 1, raised to n, overflows, so f and the pdf are both infinite and their ratio is NaN.
+/// same 10⁻³). The lobe is then about r = 10⁻³ radians wide, less than a pixel of the chapters' images spans (3·10⁻³
+/// for 240 rows over a 40° field of view), and lower still its arithmetic breaks: at n ≈ 10¹⁸ (r ≈ 10⁻⁹) a cosine
+/// that rounds to just above 1, raised to n, overflows, so f and the pdf are both infinite and their ratio is NaN.
 inline constexpr Real kMinPhongRoughness = Real(1e-3);
 /// The largest Phong exponent the functions below treat as a lobe, phongExponent(kMinPhongRoughness) (2·10⁶ − 2).
 /// Above it (or infinite): the delta lobe in the mirror direction with weight ρ_s |cosθi|, the limit of the lobe's
