@@ -47,14 +47,15 @@ inline constexpr std::int64_t kMaxPixels = std::int64_t(1) << 26;
 /// the end of its motion), of a mesh vertex after its transform, of the camera's eye and focal point and of a point
 /// light; a sphere's radius, the lens's aperture and its focus distance. Far beyond what any scene needs (10⁵⁰ metres
 /// is 10²³ times the observable universe), the bound keeps what the renderer squares in double's range: an emitting
-/// sphere or triangle 10⁸⁰ across gave NaN in chapter 13's MIS weights, and a triangle with vertices 10²⁵⁰ apart has
-/// an infinite area, which chapters 7, 8 and 13 sampled as NaN. (The float build's range is far smaller; its loader
-/// checks only that each number is finite in float.)
+/// sphere or triangle 10⁸⁰ across gave bad samples in chapter 13 (10⁶⁰ did not), whose MIS weights square areas and
+/// densities, and a triangle with vertices 10²⁵⁰ apart has an infinite area, which gave bad samples in chapters 7,
+/// 8, 11 and 13. (The float build's range is far smaller; its loader checks only that each number is finite in
+/// float.)
 inline constexpr double kMaxSceneExtent = 1e50;
 
 /// The largest index of refraction a glass may have. The Fresnel equations square it, which overflows double from
-/// about 10¹⁵⁴ (ior 1e160 gave NaN in every chapter that refracts); the bound keeps the same margin as
-/// kMaxSceneExtent. No transparent material comes near: diamond's index is 2.42.
+/// about 10¹⁵⁴ (ior 1e160 gave bad samples in chapters 5, 6, 8 and 13, the ones tried); the bound keeps the same
+/// margin as kMaxSceneExtent. No transparent material comes near: diamond's index is 2.42.
 inline constexpr double kMaxIor = 1e50;
 
 /// Scenes with at most this many primitives (spheres and triangles) are searched as a flat list; larger ones through
