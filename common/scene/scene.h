@@ -14,6 +14,7 @@
 #include "geometry/triangle.h"
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -52,6 +53,14 @@ inline constexpr std::int64_t kMaxPixels = std::int64_t(1) << 26;
 /// 8, 11 and 13. (The float build's range is far smaller; its loader checks only that each number is finite in
 /// float.)
 inline constexpr double kMaxSceneExtent = 1e50;
+
+/// True when |v| ≤ kMaxSceneExtent (false for NaN): what the loader demands of every length and coordinate.
+inline bool withinSceneExtent(Real v) { return std::abs(double(v)) <= kMaxSceneExtent; }
+/// True when each coordinate of `p` lies within ±kMaxSceneExtent.
+inline bool withinSceneExtent(const Vec3& p)
+{
+  return withinSceneExtent(p.x) && withinSceneExtent(p.y) && withinSceneExtent(p.z);
+}
 
 /// The largest index of refraction a glass may have. The Fresnel equations square it, which overflows double from
 /// about 10¹⁵⁴ (ior 1e160 gave bad samples in chapters 5, 6, 8 and 13, the ones tried); the bound keeps the same

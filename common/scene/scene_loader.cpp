@@ -383,10 +383,6 @@ std::optional<TextFault> scanText(std::string_view text)
 
 // ---- Reading checked values -------------------------------------------------------------------------------
 
-// Within raylife's bound on a scene's size (kMaxSceneExtent); false for NaN.
-bool withinExtent(Real v) { return std::abs(double(v)) <= kMaxSceneExtent; }
-bool withinExtent(const Vec3& p) { return withinExtent(p.x) && withinExtent(p.y) && withinExtent(p.z); }
-
 class Reader {
 public:
   Reader(std::string_view text, const std::string& file) : text_(text), file_(file) {}
@@ -504,7 +500,7 @@ public:
   {
     const Vec3 p = vec3(j, path);
     for (std::size_t c = 0; c < 3; ++c)
-      if (!withinExtent(p[int(c)]))
+      if (!withinSceneExtent(p[int(c)]))
         fail(path / c, "a coordinate must lie within ±1e50 (raylife's bound on a scene's size), got " + j[c].dump());
     return p;
   }
@@ -570,12 +566,12 @@ void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& ca
                                " pixels is larger than the " + std::to_string(kMaxPixels) + " pixels raylife allows");
   if (j.contains("aperture")) {
     cam.aperture = r.number(j["aperture"], path / "aperture");
-    if (!(cam.aperture >= 0 && withinExtent(cam.aperture)))
+    if (!(cam.aperture >= 0 && withinSceneExtent(cam.aperture)))
       r.fail(path / "aperture", "the aperture (the lens radius) must lie in [0, 1e50], got " + j["aperture"].dump());
   }
   if (j.contains("focus")) {
     cam.focus = r.number(j["focus"], path / "focus");
-    if (!(cam.focus > 0 && withinExtent(cam.focus)))
+    if (!(cam.focus > 0 && withinSceneExtent(cam.focus)))
       r.fail(path / "focus", "the focus distance must be greater than 0 and at most 1e50, got " + j["focus"].dump());
   }
   auto basis = makeCameraBasis(cam.eye, cam.focal, cam.up);
@@ -797,7 +793,7 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
                                      std::string(sizeof(Real) == 4 ? "float" : "double"));
     // An inline vertex was checked as it was read, and a file's are floats (below 3.4e38): only the transform
     // takes one past the bound.
-    if (!withinExtent(p)) {
+    if (!withinSceneExtent(p)) {
       // Named by where it lands: a file's vertices may be renumbered by the reader.
       char at[96];
       std::snprintf(at, sizeof at, "(%.6g, %.6g, %.6g)", double(p.x), double(p.y), double(p.z));
@@ -968,13 +964,13 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
       s.radius = r.number(r.required(js, p, "radius"), p / "radius");
       if (!(s.radius > 0))
         r.fail(p / "radius", "the radius must be greater than 0, got " + js["radius"].dump());
-      if (!withinExtent(s.radius))
+      if (!withinSceneExtent(s.radius))
         r.fail(p / "radius", "the radius must be at most 1e50 (raylife's bound on a scene's size), got " +
                                  js["radius"].dump());
       s.material = material(js, p);
       if (js.contains("velocity")) {
         s.velocity = r.vec3(js["velocity"], p / "velocity");
-        if (!withinExtent(s.center + s.velocity))
+        if (!withinSceneExtent(s.center + s.velocity))
           r.fail(p / "velocity", "the sphere's centre at the end of the shutter interval (center + velocity) lies "
                                  "beyond ±1e50 (raylife's bound on a scene's size)");
       }

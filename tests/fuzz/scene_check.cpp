@@ -10,8 +10,6 @@ namespace {
 
 bool finite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 bool nonNegative(const Color& c) { return finite(c) && c.r >= 0 && c.g >= 0 && c.b >= 0; }
-bool withinExtent(Real v) { return std::abs(double(v)) <= kMaxSceneExtent; }
-bool withinExtent(const Vec3& v) { return withinExtent(v.x) && withinExtent(v.y) && withinExtent(v.z); }
 
 // True when `s` is valid UTF-8 with no control characters: safe to print on one terminal line.
 bool printableLine(const std::string& s)
@@ -36,7 +34,7 @@ bool printableLine(const std::string& s)
 std::string checkMeshes(const Scene& scene)
 {
   for (const Vec3& v : scene.vertices)
-    if (!withinExtent(v))
+    if (!withinSceneExtent(v))
       return "a mesh vertex beyond the bound on a scene's size was accepted";
   if (!scene.vertexNormals.empty() && scene.vertexNormals.size() != scene.vertices.size())
     return "vertex normals that do not match the vertices";
@@ -117,11 +115,11 @@ std::string checkSceneText(std::string_view text)
   if (std::string problem = checkMeshes(scene); !problem.empty())
     return problem;
   for (const Sphere& s : scene.spheres) {
-    if (!withinExtent(s.center) || !(s.radius > 0) || !withinExtent(s.radius))
+    if (!withinSceneExtent(s.center) || !(s.radius > 0) || !withinSceneExtent(s.radius))
       return "a sphere with a bad centre or radius was accepted";
     if (s.material < 0 || std::size_t(s.material) >= scene.materials.size())
       return "a sphere's material index is out of range";
-    if (!finite(s.velocity) || !withinExtent(s.center + s.velocity))
+    if (!finite(s.velocity) || !withinSceneExtent(s.center + s.velocity))
       return "a sphere with a bad velocity was accepted";
   }
   for (const Material& m : scene.materials)
@@ -129,7 +127,7 @@ std::string checkSceneText(std::string_view text)
         !(m.roughness >= 0 && m.roughness <= 1) || (m.type != MaterialType::Metal && !(m.roughness > 0)))
       return "material '" + m.name + "' has a value out of range";
   for (const PointLight& l : scene.lights)
-    if (!withinExtent(l.position) || !nonNegative(l.intensity))
+    if (!withinSceneExtent(l.position) || !nonNegative(l.intensity))
       return "a light has a bad position or intensity";
   if (!nonNegative(scene.background) || !nonNegative(scene.ambient))
     return "a bad background or ambient term was accepted";
@@ -138,9 +136,9 @@ std::string checkSceneText(std::string_view text)
     return "an image size out of range was accepted";
   if (!(c.vfovDeg > 0 && c.vfovDeg < 180))
     return "a field of view out of range was accepted";
-  if (!(c.aperture >= 0 && withinExtent(c.aperture)) || !(c.focus >= 0 && withinExtent(c.focus)))
+  if (!(c.aperture >= 0 && withinSceneExtent(c.aperture)) || !(c.focus >= 0 && withinSceneExtent(c.focus)))
     return "a lens with a bad aperture or focus was accepted";
-  if (!withinExtent(c.eye) || !withinExtent(c.focal) || !finite(c.basis.u) || !finite(c.basis.v) ||
+  if (!withinSceneExtent(c.eye) || !withinSceneExtent(c.focal) || !finite(c.basis.u) || !finite(c.basis.v) ||
       !finite(c.basis.w))
     return "a camera with a non-finite eye or basis was accepted";
   const Real tolerance = Real(1e-3);

@@ -46,7 +46,7 @@ void renderEveryStressScene(std::initializer_list<const char*> chapters, const s
     for (const auto& scene : scenes) {
       const ChapterRun run = runChapter(chapter, scene.string(),
                                         std::string("finite_") + chapter + "_" + scene.stem().string(), extra);
-      INFO(chapter << " on " << scene.filename().string());
+      INFO(chapter << " on " << scene.filename().string() << ", standard error:\n" << run.err);
       REQUIRE(run.status == 0);
       CHECK(run.badSamples == 0);
       CHECK(badPixels(run.image) == 0);

@@ -18,7 +18,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -241,35 +240,28 @@ TEST_CASE("stability 12: random hostile scenes render cleanly or are refused in 
     int sceneStatus = -1;
     std::string firstMessage;
     for (const char* chapter : kChapters) {
-      INFO(chapter);
-      const std::string out = stem + "_" + chapter;
-      std::filesystem::remove(out + ".pfm");
-      std::ostringstream command;
-      command << "timeout 120 \"" << RAYLIFE_STEP_DIR << "/" << chapter << "\" \"" << stem << ".json\" -o \"" << out
-              << ".pfm\" --stats \"" << out << ".stats\" --threads 1 --quiet --spp 2 2> \"" << out << ".err\"";
-      const int raw = std::system(command.str().c_str());
-      const int status = raw == -1 ? -1 : WEXITSTATUS(raw);
-      const std::string err = readText(out + ".err");
-      INFO("exit status " << status << ", standard error:\n" << err);
-      REQUIRE((status == 0 || status == 1));
+      const std::string tag = "random_" + std::to_string(k) + "_" + chapter;
+      const ChapterRun run = runChapter(chapter, stem + ".json", tag, "--spp 2");
+      INFO(chapter << ": exit status " << run.status << ", standard error:\n" << run.err);
+      REQUIRE((run.status == 0 || run.status == 1));
       if (sceneStatus == -1)
-        sceneStatus = status;
-      CHECK(status == sceneStatus); // every chapter loads the scene with the same loader
-      if (status == 1) {
+        sceneStatus = run.status;
+      CHECK(run.status == sceneStatus); // every chapter loads the scene with the same loader
+      if (run.status == 1) {
         // One line naming the file (warnings before it are lines of their own), and no image.
+        const std::string& err = run.err;
         const std::size_t last = err.rfind('\n', err.size() - 2);
         const std::string line = err.substr(last == std::string::npos ? 0 : last + 1);
         CHECK(line.rfind(std::string(chapter) + ": " + stem + ".json:", 0) == 0);
         CHECK(std::count(line.begin(), line.end(), '\n') == 1);
-        CHECK_FALSE(std::filesystem::exists(out + ".pfm"));
+        CHECK_FALSE(std::filesystem::exists(std::filesystem::path(RAYLIFE_STABILITY_OUT_DIR) / (tag + ".pfm")));
         const std::string message = line.substr(line.find(": ") + 2);
         if (firstMessage.empty())
           firstMessage = message;
         CHECK(message == firstMessage);
       } else {
-        const std::string stats = readText(out + ".stats");
-        CHECK(stats.find("\"bad_samples\": 0,") != std::string::npos);
-        CHECK(badPixels(readPfm(out + ".pfm")) == 0);
+        CHECK(run.badSamples == 0);
+        CHECK(badPixels(run.image) == 0);
       }
     }
     (sceneStatus == 0 ? rendered : refused) += 1;
