@@ -33,8 +33,9 @@ std::optional<Hit> makeSphereHit(const std::vector<Sphere>& spheres, const Ray& 
 // [triangleHit]
 // The hit record of triangle `triangle` (an index into scene.triangles), which the ray hits at parameter t: the
 // test is made again for the barycentrics (the search kept only t), the point comes from them with its error bound,
-// and a smooth mesh's normal is its vertex normals interpolated there, turned to the front side.
-std::optional<Hit> makeTriangleHit(const Scene& scene, const Ray& ray, Real t, std::size_t triangle)
+// and a smooth mesh's normal is its vertex normals interpolated there, turned to the front side. (Out of line, so that
+// Scene::intersect stays small enough to be inlined into the chapters.)
+[[gnu::noinline]] std::optional<Hit> makeTriangleHit(const Scene& scene, const Ray& ray, Real t, std::size_t triangle)
 {
   const Triangle& tri = scene.triangles[triangle];
   const auto [p0, p1, p2] = scene.triangleVertices(triangle);
@@ -61,6 +62,12 @@ std::optional<Hit> makeTriangleHit(const Scene& scene, const Ray& ray, Real t, s
   return hit;
 }
 // [triangleHit]
+
+// The nearest primitive found so far: its parameter t along the ray, and its number (−1: none).
+struct Nearest {
+  Real t;
+  int primitive;
+};
 
 // The hit record of primitive `index`, hit at t.
 std::optional<Hit> makeHit(const Scene& scene, const Ray& ray, Real t, int index)
@@ -97,50 +104,52 @@ bool Scene::usesLanes() const
 }
 
 // [intersect]
-// The hot path of every chapter: flatten inlines the sphere and triangle tests into the loops (about 16% fewer
-// instructions). The nearest primitive is found one of three ways, all with the same answer; then one hit record is
-// made (one copy of makeHit keeps the function small enough for the chapters to inline it: 4% fewer instructions in
-// chapter 6).
-[[gnu::flatten]] std::optional<Hit> Scene::intersect(const Ray& ray) const
+// The nearest primitive of a scene without a tree, by loops (flatten: the sphere and triangle tests inlined into
+// them, about 16% fewer instructions). Its own function, out of line, as is a triangle's hit record: the tree's way
+// and a sphere's record are what most rays take, and with the loops inlined intersect grew too large for the
+// chapters to inline it.
+[[gnu::flatten, gnu::noinline]] static Nearest nearestByLoop(const Scene& scene, const Ray& ray)
 {
-  ++tRayCount;
-  Real tNearest = ray.tmax;
-  int nearest = -1;
-  if (usesAccelerator()) { // the same answer as the loops below, found through the BVH
-    if (const std::optional<BvhHit> h = accelerator.intersect(ray)) {
-      tNearest = h->t;
-      nearest = h->primitive;
-    }
+  Nearest nearest{ray.tmax, -1};
+  if (scene.usesLanes()) { // the same answer as the loop below, four spheres at a time
+    if (const std::optional<SphereHit> h = scene.lanes.intersect(ray))
+      nearest = Nearest{h->t, h->sphere};
   } else {
-    if (usesLanes()) { // the same answer as the loop below, four spheres at a time
-      if (const std::optional<SphereHit> h = lanes.intersect(ray)) {
-        tNearest = h->t;
-        nearest = h->sphere;
-      }
-    } else {
-      // Find the nearest sphere: each hit shrinks the interval, so later spheres must be nearer to count.
-      for (std::size_t i = 0; i < spheres.size(); ++i) {
-        const Sphere& s = spheres[i];
-        const Vec3 center = s.centerAt(ray.time);
-        if (auto t = intersectSphere(ray.origin, ray.direction, center, s.radius, ray.tmin, tNearest)) {
-          tNearest = *t;
-          nearest = int(i);
-        }
-      }
-    }
-    // Then the triangles, numbered after the spheres, in the same way.
-    for (std::size_t j = 0; j < triangles.size(); ++j) {
-      const auto [p0, p1, p2] = triangleVertices(j);
-      if (auto h = intersectTriangle(ray.origin, ray.direction, p0, p1, p2, ray.tmin, tNearest)) {
-        tNearest = h->t;
-        nearest = int(spheres.size() + j);
-      }
+    // Find the nearest sphere: each hit shrinks the interval, so later spheres must be nearer to count.
+    for (std::size_t i = 0; i < scene.spheres.size(); ++i) {
+      const Sphere& s = scene.spheres[i];
+      const Vec3 center = s.centerAt(ray.time);
+      if (auto t = intersectSphere(ray.origin, ray.direction, center, s.radius, ray.tmin, nearest.t))
+        nearest = Nearest{*t, int(i)};
     }
   }
-  if (nearest < 0)
+  // Then the triangles, numbered after the spheres, in the same way.
+  for (std::size_t j = 0; j < scene.triangles.size(); ++j) {
+    const auto [p0, p1, p2] = scene.triangleVertices(j);
+    if (auto h = intersectTriangle(ray.origin, ray.direction, p0, p1, p2, ray.tmin, nearest.t))
+      nearest = Nearest{h->t, int(scene.spheres.size() + j)};
+  }
+  return nearest;
+}
+
+// The hot path of every chapter. The nearest primitive is found one of three ways, all with the same answer: the
+// tree, four spheres at a time, or the loop; then one hit record is made.
+std::optional<Hit> Scene::intersect(const Ray& ray) const
+{
+  ++tRayCount;
+  Nearest nearest{ray.tmax, -1};
+  if (usesAccelerator()) { // the same answer as the loops, found through the BVH
+    if (const std::optional<BvhHit> h = accelerator.intersect(ray))
+      nearest = Nearest{h->t, h->primitive};
+  } else {
+    nearest = nearestByLoop(*this, ray);
+  }
+  if (nearest.primitive < 0)
     return std::nullopt;
 
-  return makeHit(*this, ray, tNearest, nearest);
+  if (std::size_t(nearest.primitive) < spheres.size())
+    return makeSphereHit(spheres, ray, nearest.t, nearest.primitive);
+  return makeTriangleHit(*this, ray, nearest.t, std::size_t(nearest.primitive) - spheres.size());
 }
 // [intersect]
 
