@@ -730,7 +730,10 @@ template <class V> struct BvhWalk {
   float tNearest;            // the nearest hit so far, rounded up to a float: a box entered beyond it is skipped
   std::uint32_t current = 0; // the node (or leaf) to visit next: the root first
   int stackSize = 0;
-  Entry stack[(BvhWideNode::kWidth - 1) * Bvh::kMaxDepth + 1];
+  // The caller's array of kStackSize entries. (Not a member array: with the array inside the walk, chapter 6's
+  // query made 2.5 % more instructions, by callgrind.)
+  Entry* stack = nullptr;
+  static constexpr int kStackSize = (BvhWideNode::kWidth - 1) * Bvh::kMaxDepth + 1;
 
   // Starts the walk of `ray` at the root, boxes beyond `tmax` skipped.
   void start(const Ray& ray, Real tmax)
@@ -752,6 +755,8 @@ template <bool kAnyHit, bool kCountWork, class V>
   // (found.t is ray.tmax, or the nearest hit outside the tree: boxes beyond it are skipped. No branch on which:
   // whether a ray hits the ground sphere, say, is random from ray to ray.)
   BvhWalk<V> walk;
+  typename BvhWalk<V>::Entry stack[BvhWalk<V>::kStackSize];
+  walk.stack = stack;
   walk.start(ray, found.t);
   // Depth first, a node at a time.
   while (visit<kAnyHit, kCountWork, V>(ray, walk, found)) {
@@ -964,6 +969,9 @@ template <int kInFlight, class V>
 [[gnu::flatten]] void Bvh::interleave(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const
 {
   BvhWalk<V> walks[kInFlight];
+  typename BvhWalk<V>::Entry stacks[kInFlight][BvhWalk<V>::kStackSize];
+  for (int k = 0; k < kInFlight; ++k)
+    walks[k].stack = stacks[k];
   Traversal found[kInFlight];
   std::size_t which[kInFlight];
   bool going[kInFlight];
