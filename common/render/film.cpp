@@ -8,10 +8,6 @@
 
 namespace raylife {
 
-double toDouble(const Fixed128& f, int fractionBits)
-{
-  return std::ldexp(std::ldexp(double(f.hi), 64) + double(f.lo), -fractionBits);
-}
 
 Film::Film(int width, int height)
     : width_(width), height_(height), sums_(std::size_t(width) * std::size_t(height)),

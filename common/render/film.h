@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -75,8 +76,14 @@ inline Fixed128 toFixed(double v, int fractionBits)
   // (Bitwise, not ||: a short-circuit is a branch on the sample's low bits, mispredicted half the time.)
   return {quotient + (std::uint64_t(remainder > half) | (std::uint64_t(remainder == half) & quotient & 1)), 0};
 }
-/// The value of `f` (F = `fractionBits`) as the nearest double, give or take one rounding of the low word.
-double toDouble(const Fixed128& f, int fractionBits);
+/// The value of `f` (F = `fractionBits`, at most 1022) as the nearest double, give or take one rounding of the low
+/// word.
+inline double toDouble(const Fixed128& f, int fractionBits)
+{
+  // hi·2⁶⁴ + lo is 0 or at least 1, so scaling it by 2^−F (F ≤ 1022) is exact: a product, not a call to ldexp
+  // (std::ldexp(1.0, −F) is folded where F is a constant).
+  return (double(f.hi) * 0x1p64 + double(f.lo)) * std::ldexp(1.0, -fractionBits);
+}
 
 /// Samples of radiance must lie below this (2³², about 4.3·10⁹) to be added to a film: the render loop counts
 /// a larger one as bad and adds black, as it does a NaN. With kMaxSamplesPerPixel samples, sums stay below 2⁵⁶
