@@ -8,7 +8,6 @@
 
 namespace raylife {
 
-
 Film::Film(int width, int height)
     : width_(width), height_(height), sums_(std::size_t(width) * std::size_t(height)),
       counts_(std::size_t(width) * std::size_t(height), 0)

@@ -74,17 +74,20 @@ TEST_CASE("toDouble scales by a product what two calls to ldexp scaled, to the s
 {
   // hi·2^64 + lo is 0 or at least 1, so the product by 2^-F (F ≤ 1022) is exact, as ldexp is.
   std::mt19937_64 rng(5);
+  int differ = 0;
   for (int i = 0; i < 100000; ++i) {
     // Words of every width, zero included, and every fraction the film uses or a merge might.
-    const std::uint64_t lo = i % 7 == 0 ? 0 : rng() >> (rng() % 64);
-    const std::uint64_t hi = i % 3 == 0 ? 0 : rng() >> (rng() % 64);
+    const std::uint64_t loBits = rng(), loShift = rng() % 64, hiBits = rng(), hiShift = rng() % 64;
+    const std::uint64_t lo = i % 11 == 0 ? 0 : loBits >> loShift;
+    const std::uint64_t hi = i % 3 == 0 ? 0 : hiBits >> hiShift;
     const int f = std::array{0, 1, 40, 64, 100, 1000, 1022}[std::size_t(i) % 7];
     const Fixed128 x{lo, hi};
     const double byLdexp = std::ldexp(std::ldexp(double(hi), 64) + double(lo), -f);
-    if (std::bit_cast<std::uint64_t>(toDouble(x, f)) != std::bit_cast<std::uint64_t>(byLdexp))
+    if (std::bit_cast<std::uint64_t>(toDouble(x, f)) != std::bit_cast<std::uint64_t>(byLdexp) && ++differ <= 5)
       FAIL_CHECK("toDouble({" << lo << ", " << hi << "}, " << f << ") = " << toDouble(x, f) << ", by ldexp "
                               << byLdexp);
   }
+  CHECK(differ == 0);
 }
 
 TEST_CASE("the film holds samples below 2^32 only and the render loop counts larger ones as bad")
