@@ -147,9 +147,7 @@ std::optional<Hit> Scene::intersect(const Ray& ray) const
   if (nearest.primitive < 0)
     return std::nullopt;
 
-  if (std::size_t(nearest.primitive) < spheres.size())
-    return makeSphereHit(spheres, ray, nearest.t, nearest.primitive);
-  return makeTriangleHit(*this, ray, nearest.t, std::size_t(nearest.primitive) - spheres.size());
+  return makeHit(*this, ray, nearest.t, nearest.primitive);
 }
 // [intersect]
 
