@@ -365,13 +365,30 @@ std::optional<TextFault> scanText(std::string_view text)
     } else {
       // A number or a literal: check that a number fits in a double.
       std::size_t end = pos;
-      while (end < text.size() && std::string_view(",]} \t\r\n:").find(text[end]) == std::string_view::npos)
-        ++end;
-      const std::string token(text.substr(pos, end - pos));
-      if (c == '-' || (c >= '0' && c <= '9')) {
-        const double v = std::strtod(token.c_str(), nullptr);
+      // (A switch, not a search of the string ",]} \t\r\n:" for every character, and the exponent noted on the
+      // way, not searched for: the two searches were more than a third of this scan's instructions.)
+      auto endsToken = [](char e) {
+        switch (e) {
+        case ',': case ']': case '}': case ' ': case '\t': case '\r': case '\n': case ':':
+          return true;
+        default:
+          return false;
+        }
+      };
+      bool exponent = false;
+      for (; end < text.size() && !endsToken(text[end]); ++end)
+        exponent = exponent || text[end] == 'e' || text[end] == 'E';
+      const std::string_view token = text.substr(pos, end - pos);
+      // Only a number with an exponent, or with more than 308 characters, can reach 1.8·10³⁰⁸: without an
+      // exponent it has at most 308 digits before its point, so it is below 10³⁰⁸. (strtod on every number was 8 %
+      // of the instructions it took to load 20,000 spheres.)
+      constexpr std::size_t kDigitsBelowDoubleMax = 308;
+      if ((c == '-' || (c >= '0' && c <= '9')) &&
+          (token.size() > kDigitsBelowDoubleMax || exponent)) {
+        const std::string number(token);
+        const double v = std::strtod(number.c_str(), nullptr);
         if (!std::isfinite(v))
-          return TextFault{pos, path(nullptr), "the number " + shorten(token) + " is too large for a double"};
+          return TextFault{pos, path(nullptr), "the number " + shorten(number) + " is too large for a double"};
       }
       if (end == pos)
         return std::nullopt;

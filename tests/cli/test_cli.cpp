@@ -64,7 +64,7 @@ std::string withFault(const std::string& from, const std::string& to)
 struct BadScene {
   const char* what;     // the fault
   std::string text;     // the scene file
-  const char* message;  // the whole of standard error after "step04_shadows: "
+  std::string message;  // the whole of standard error after "step04_shadows: "
 };
 
 // Runs step04 on `text` (as scene.json) with -o out.png; checks status 1, exactly `message` on one line, and
@@ -179,6 +179,19 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
        "scene.json:11:38: /spheres/1/radius: the radius must be greater than 0, got 0"},
       {"a number too large for a double", withFault(R"("radius": 1,)", R"("radius": 1e400,)"),
        "scene.json:11:38: /spheres/1/radius: the number 1e400 is too large for a double"},
+      // Without an exponent, only a number of more than 308 characters can overflow: 2·10³⁰⁸ is 309 digits, the
+      // 308 nines below it fit (and meet the bound on a scene's size instead).
+      {"a number too large for a double, in 309 digits", withFault(R"("radius": 1,)", R"("radius": 2)" +
+                                                                   std::string(308, '0') + ","),
+       "scene.json:11:38: /spheres/1/radius: the number 2" + std::string(36, '0') + "... is too large for a double"},
+      {"a negative number too large for a double, in 309 digits",
+       withFault(R"("center": [0, 1, 0])", R"("center": [0, -2)" + std::string(308, '0') + ", 0]"),
+       "scene.json:11:21: /spheres/1/center/1: the number -2" + std::string(35, '0') +
+           "... is too large for a double"},
+      {"a number in 308 digits, which a double holds", withFault(R"("radius": 1,)", R"("radius": )" +
+                                                                 std::string(308, '9') + ","),
+       "scene.json:11:38: /spheres/1/radius: the radius must be at most 1e50 (raylife's bound on a scene's size), "
+       "got 1e+308"},
       {"an index of refraction below 1", withFault(R"("ior": 1.5)", R"("ior": 0.9)"),
        "scene.json:7:60: /materials/glass/ior: the index of refraction must be at least 1, got 0.9"},
       {"an index of refraction past the bound", withFault(R"("ior": 1.5)", R"("ior": 1e160)"),
