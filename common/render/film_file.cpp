@@ -54,23 +54,35 @@ std::int64_t FilmHeader::sampleCount() const
   return n;
 }
 
-std::uint64_t hashBytes(std::string_view bytes)
+namespace {
+// FNV-1a over `bytes`, going on from `h` (the offset basis for the first bytes).
+std::uint64_t fnv1a(std::string_view bytes, std::uint64_t h)
 {
-  std::uint64_t h = 0xcbf29ce484222325ull; // FNV-1a's offset basis and prime
   for (const char c : bytes) {
     h ^= static_cast<unsigned char>(c);
-    h *= 0x100000001b3ull;
+    h *= 0x100000001b3ull; // FNV-1a's prime
   }
   return h;
 }
+constexpr std::uint64_t kFnvOffsetBasis = 0xcbf29ce484222325ull;
+} // namespace
+
+std::uint64_t hashBytes(std::string_view bytes) { return fnv1a(bytes, kFnvOffsetBasis); }
 
 std::uint64_t hashFile(const std::string& path)
 {
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw FilmError(path + ": cannot open: " + std::strerror(errno));
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return hashBytes(bytes);
+  // A block at a time: no copy of the file in memory, and none of istreambuf_iterator's cost per byte (it was
+  // two thirds of the instructions to hash a 3 MB scene).
+  std::uint64_t h = kFnvOffsetBasis;
+  char buffer[65536];
+  while (in.read(buffer, sizeof buffer) || in.gcount() > 0)
+    h = fnv1a(std::string_view(buffer, std::size_t(in.gcount())), h);
+  if (in.bad())
+    throw FilmError(path + ": cannot read: " + std::strerror(errno));
+  return h;
 }
 
 std::string describeRanges(const std::vector<SampleRange>& ranges)

@@ -282,3 +282,24 @@ TEST_CASE("merging films checks that they are shares of one render and that no s
   otherScene.header.sceneHash = 1;
   CHECK_THROWS_WITH(mergeFilm(fresh, "a.film", otherScene, "e.film"), Catch::Contains("scene file"));
 }
+
+TEST_CASE("a scene's fingerprint: hashFile is hashBytes of the file across its blocks, and FNV-1a gives its own values")
+{
+  // FNV-1a's published 64-bit values: of nothing, the offset basis; of "a", 0xaf63dc4c8601ec8c.
+  CHECK(hashBytes("") == 0xcbf29ce484222325ull);
+  CHECK(hashBytes("a") == 0xaf63dc4c8601ec8cull);
+  // hashFile reads a block of 64 KiB at a time: files shorter than a block, exactly one, and over three.
+  const std::filesystem::path path = std::filesystem::temp_directory_path() / "raylife_test_hash_file.json";
+  std::mt19937 random(5);
+  for (const std::size_t size : {std::size_t(0), std::size_t(1), std::size_t(65535), std::size_t(65536),
+                                 std::size_t(65537), std::size_t(200001)}) {
+    std::string text(size, ' ');
+    for (char& c : text)
+      c = char(random() & 0xff);
+    std::ofstream(path, std::ios::binary) << text;
+    INFO(size << " bytes");
+    CHECK(hashFile(path.string()) == hashBytes(text));
+  }
+  std::filesystem::remove(path);
+  CHECK_THROWS_AS(hashFile(path.string()), FilmError);
+}
