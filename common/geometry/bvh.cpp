@@ -214,15 +214,22 @@ private:
     if (area > 0 && area < kInfinity) {
       // Sort the centroids into bins on the three axes at once (one pass over the items, which for a million
       // triangles do not fit in the cache): each bin's count and the box of its primitives.
-      bool splittable[3];
-      Real lo[3], extent[3];
-      std::array<std::array<std::size_t, kMaxBins>, 3> count{};
-      std::array<std::array<Bounds3, kMaxBins>, 3> box{};
+      bool splittable[3] = {};
+      Real lo[3] = {}, extent[3] = {}; // (set below; initialised for GCC 12, which cannot see it)
+      // (The bins are the builder's, emptied here as far as `bins` reaches: made and emptied whole, all
+      // kMaxBins of them, at every node, they were a fifth of this function's time on a mesh of a million
+      // triangles, whose nodes are mostly small.)
+      auto& count = binCount_;
+      auto& box = binBox_;
       for (int axis = 0; axis < 3; ++axis) {
         lo[axis] = centroids.lo[axis];
         extent[axis] = centroids.hi[axis] - lo[axis];
         // (Every centroid in one plane across an axis: nothing to split there.)
         splittable[axis] = extent[axis] > 0 && extent[axis] < kInfinity;
+        for (int b = 0; b < bins; ++b) {
+          count[std::size_t(axis)][std::size_t(b)] = 0;
+          box[std::size_t(axis)][std::size_t(b)] = Bounds3{};
+        }
       }
       for (std::size_t i = begin; i < end; ++i) {
         const Vec3 c = items_[i].centroid();
@@ -238,9 +245,10 @@ private:
           continue;
         const auto& binCount = count[std::size_t(axis)];
         const auto& binBox = box[std::size_t(axis)];
-        // Sweep from the right to know, for each boundary, the area and count of everything to its right.
-        std::array<Real, kMaxBins> rightArea{};
-        std::array<std::size_t, kMaxBins> rightCount{};
+        // Sweep from the right to know, for each boundary, the area and count of everything to its right
+        // (bins 1 to bins − 1 are written before they are read).
+        std::array<Real, kMaxBins> rightArea;
+        std::array<std::size_t, kMaxBins> rightCount;
         Bounds3 right;
         std::size_t nRight = 0;
         for (int b = bins - 1; b > 0; --b) {
@@ -291,6 +299,9 @@ private:
   std::vector<BuildItem> items_;
   int spheres_;
   BvhBuildOptions options_;
+  // sah's bins, per axis: how many centroids fall in each, and the box of their primitives.
+  std::array<std::array<std::size_t, kMaxBins>, 3> binCount_;
+  std::array<std::array<Bounds3, kMaxBins>, 3> binBox_;
 };
 
 // ---- Huge primitives -----------------------------------------------------------------------------------------
