@@ -16,6 +16,9 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <string>
+
+#include <unistd.h>
 
 using namespace raylife;
 using raylife::test::smallScene;
@@ -289,7 +292,8 @@ TEST_CASE("a scene's fingerprint: hashFile is hashBytes of the file across its b
   CHECK(hashBytes("") == 0xcbf29ce484222325ull);
   CHECK(hashBytes("a") == 0xaf63dc4c8601ec8cull);
   // hashFile reads a block of 64 KiB at a time: files shorter than a block, exactly one, and over three.
-  const std::filesystem::path path = std::filesystem::temp_directory_path() / "raylife_test_hash_file.json";
+  const std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("raylife_test_hash_file_" + std::to_string(::getpid()) + ".json");
   std::mt19937 random(5);
   for (const std::size_t size : {std::size_t(0), std::size_t(1), std::size_t(65535), std::size_t(65536),
                                  std::size_t(65537), std::size_t(200001)}) {
