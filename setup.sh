@@ -14,6 +14,7 @@ packages=(
   libglm-dev                     # vector maths
   libstb-dev                     # PNG reading and writing
   nlohmann-json3-dev             # scene files
+  libhwy-dev                     # SIMD kernels chosen at run time (Google Highway: chapter 16)
   libassimp-dev                  # mesh files (OBJ, PLY)
   assimp-testmodels              # chapter 10's model and the mesh loader's tests (real and malformed files)
   libopenexr-dev openexr         # EXR images (openexr: exrheader, which a test reads them with)

@@ -7,6 +7,9 @@ find_package(OpenMP REQUIRED COMPONENTS CXX)
 find_package(Threads REQUIRED)
 # OpenEXR (libopenexr-dev, 3.1 in Debian 12): -o x.exr, and every tool that reads images reads EXR too.
 find_package(OpenEXR 3 REQUIRED CONFIG)
+# Google Highway (libhwy-dev, 1.0.3 in Debian 12): the SIMD of chapter 16's stream kernels, compiled for several
+# instruction sets in one binary and chosen at run time (render/ray_stream.h), so the build stays generic x86-64.
+find_package(hwy 1 REQUIRED CONFIG)
 # MPI (libopenmpi-dev): only in the MPI build (cmake --preset mpi; ./setup.sh --mpi installs it).
 option(RAYLIFE_MPI "Build the chapters as MPI programs (mpirun -np N renders one image over N ranks)" OFF)
 if(RAYLIFE_MPI)

@@ -23,6 +23,12 @@ RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSetti
   return raylife::render(scene, camera, settings, trace);
 }
 
+RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSettings settings,
+                           const WavefrontWorkers& workers, std::size_t maxKeys)
+{
+  return raylife::render(scene, camera, settings, workers, maxKeys);
+}
+
 RenderResult Ranks::renderShared(RenderSettings settings,
                                  const std::function<RenderResult(const RenderSettings&)>& renderShare)
 {

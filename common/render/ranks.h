@@ -58,6 +58,10 @@ public:
   /// rank's film holds every splat of its passes and the shares sum exactly as well.
   RenderResult render(const Scene& scene, const Camera& camera, RenderSettings settings,
                       const SplatTraceFunction& trace);
+  /// The same for a wavefront estimator (chapter 16), one made by `workers` for each thread, handed pieces of at
+  /// most `maxKeys` pixel samples.
+  RenderResult render(const Scene& scene, const Camera& camera, RenderSettings settings,
+                      const WavefrontWorkers& workers, std::size_t maxKeys);
 
   /// Seconds the last render() spent combining the ranks' films (0 for one process).
   double combineSeconds() const { return combineSeconds_; }

@@ -232,6 +232,14 @@ RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSetti
                       [&](const RenderSettings& share) { return raylife::render(scene, camera, share, trace); });
 }
 
+RenderResult Ranks::render(const Scene& scene, const Camera& camera, RenderSettings settings,
+                           const WavefrontWorkers& workers, std::size_t maxKeys)
+{
+  return renderShared(settings, [&](const RenderSettings& share) {
+    return raylife::render(scene, camera, share, workers, maxKeys);
+  });
+}
+
 RenderResult Ranks::renderShared(RenderSettings settings,
                                  const std::function<RenderResult(const RenderSettings&)>& renderShare)
 {

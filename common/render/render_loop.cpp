@@ -64,6 +64,30 @@ int adaptiveCheckpointAfter(int done)
   return done + std::max(kAdaptiveMinSamples, done / 4 / kAdaptiveMinSamples * kAdaptiveMinSamples);
 }
 
+} // namespace
+
+PrimaryRays::PrimaryRays(const Camera& camera, const RenderSettings& settings)
+    : camera_(camera), seed_(settings.seed), pixelSampling_(settings.pixelSampling),
+      strata_(strataPerSide(settings.adaptive ? std::nullopt : settings.spp)), lens_(settings.lens),
+      motion_(settings.motion)
+{
+}
+
+// One pixel sample: a film position, the primary ray. (Cook's distributed ray tracing, chapter 11: a point on the
+// lens and a time in the shutter interval, drawn only where the camera and the scene have them, so a still pinhole
+// render keeps every random number where it was.)
+Ray PrimaryRays::ray(int x, int y, int s, Sampler& sampler, const PixelSequence& sequence) const
+{
+  const Vec2 offset = pixelOffset(pixelSampling_, s, strata_, sampler, sequence);
+  const Vec2 film = Vec2(Real(x), Real(y)) + offset;
+  Ray ray = lens_ ? camera_.ray(film, sampler.next2D()) : camera_.ray(film);
+  if (motion_)
+    ray.time = sampler.next1D();
+  return ray;
+}
+
+namespace {
+
 void drawProgress(double fraction, double elapsed)
 {
   const int width = 40;
@@ -127,9 +151,11 @@ Color SplatSums::take(std::size_t pixel)
 
 namespace {
 
-// The render loop of both kinds of estimator: `trace` (one sample, one pixel) or `splatTrace` (one of them is set).
+// The render loop of the three kinds of estimator: `trace` (one sample, one pixel), `splatTrace` or `workers`
+// (a wavefront estimator per thread: many samples at once, in pieces of at most `maxKeys`); one of them is set.
 RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSettings& settings,
-                        const TraceFunction* trace, const SplatTraceFunction* splatTrace)
+                        const TraceFunction* trace, const SplatTraceFunction* splatTrace,
+                        const WavefrontWorkers* workers = nullptr, std::size_t maxKeys = 1)
 {
   const SampleShare& share = settings.share;
   if (splatTrace && settings.adaptive)
@@ -149,7 +175,7 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
   const bool untilTime = !settings.spp && settings.seconds;
   const int target = untilTime ? int(kMaxSamplesPerPixel / std::uint32_t(std::max(1, share.ranks)))
                                : settings.spp ? (share.range ? share.range->count : *settings.spp) : 1;
-  const int strata = strataPerSide(settings.adaptive ? std::nullopt : settings.spp);
+  const PrimaryRays primary(camera, settings);
   // With splats: each pixel's own light in the pass under way, and the splats it has received in it.
   std::vector<Color> own(splatTrace ? std::size_t(width) * std::size_t(height) : 0);
   std::optional<SplatSums> splatSums;
@@ -230,17 +256,6 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
 
     std::uint64_t rays = 0, bad = 0, pixelSamples = 0;
     std::atomic<int> tilesDone{0};
-    // One pixel sample: its own random numbers, a film position, the primary ray. (Cook's distributed ray tracing,
-    // chapter 11: a point on the lens and a time in the shutter interval, drawn only where the camera and the scene
-    // have them, so a still pinhole render keeps every random number where it was.)
-    auto primaryRay = [&](int x, int y, int s, Sampler& sampler, const PixelSequence& sequence) {
-      const Vec2 offset = pixelOffset(settings.pixelSampling, s, strata, sampler, sequence);
-      const Vec2 film = Vec2(Real(x), Real(y)) + offset;
-      Ray ray = settings.lens ? camera.ray(film, sampler.next2D()) : camera.ray(film);
-      if (settings.motion)
-        ray.time = sampler.next1D();
-      return ray;
-    };
     auto showProgress = [&](double samples) {
       const double now = elapsed();
       if (now - lastDraw > 0.1) {
@@ -265,7 +280,7 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
               for (int x = tile.x0; x < tile.x1; ++x) {
                 const PixelSequence sequence(settings.seed, x, y);
                 Sampler sampler(settings.seed, x, y, std::uint64_t(s));
-                const Ray ray = primaryRay(x, y, s, sampler, sequence);
+                const Ray ray = primary.ray(x, y, s, sampler, sequence);
                 own[std::size_t(y) * std::size_t(width) + std::size_t(x)] =
                     (*splatTrace)(scene, ray, sampler, settings.maxDepth, splats);
               }
@@ -295,6 +310,46 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
       bad += splatSums->takeBad();
       pixelSamples += std::uint64_t(s1 - s0) * std::uint64_t(width) * std::uint64_t(height);
       tilesDone = int(tiles.size());
+    } else if (workers) {
+      // The tile's batch as keys (pixel by pixel, its samples in order), handed to the wavefront in pieces.
+#pragma omp parallel num_threads(threads) reduction(+ : rays, bad, pixelSamples)
+      {
+        const std::uint64_t raysBefore = rayCount();
+        const WavefrontFunction wavefront = (*workers)();
+        std::vector<PixelSampleKey> keys;
+        std::vector<Color> radiance;
+#pragma omp for schedule(dynamic, 1)
+        for (std::size_t t = 0; t < tiles.size(); ++t) {
+          if (settings.stop && settings.stop->load(std::memory_order_relaxed))
+            continue;
+          const Tile& tile = tiles[t];
+          keys.clear();
+          for (int y = tile.y0; y < tile.y1; ++y)
+            for (int x = tile.x0; x < tile.x1; ++x)
+              if (active[std::size_t(y) * std::size_t(width) + std::size_t(x)])
+                for (int i = s0; i < s1; ++i)
+                  keys.push_back(PixelSampleKey{x, y, share.index(i)});
+          radiance.assign(keys.size(), Color(0));
+          for (std::size_t first = 0; first < keys.size(); first += maxKeys) {
+            const std::size_t count = std::min(maxKeys, keys.size() - first);
+            wavefront(scene, primary, std::span<const PixelSampleKey>(keys).subspan(first, count),
+                         settings.maxDepth, std::span<Color>(radiance).subspan(first, count));
+          }
+          for (std::size_t k = 0; k < keys.size(); ++k) {
+            Color L = radiance[k];
+            if (!Film::holds(L)) { // guarded as a TraceFunction's sample is
+              ++bad;
+              L = Color(0);
+            }
+            result.film.add(keys[k].x, keys[k].y, L);
+          }
+          pixelSamples += keys.size();
+          const int tilesFinished = ++tilesDone;
+          if (settings.progress && omp_get_thread_num() == 0)
+            showProgress(s0 + double(batch) * tilesFinished / double(tiles.size()));
+        }
+        rays += rayCount() - raysBefore;
+      }
     } else {
 #pragma omp parallel num_threads(threads) reduction(+ : rays, bad, pixelSamples)
       {
@@ -315,7 +370,7 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
                 // One pixel sample: its own random numbers, a film position, the chapter's estimate.
                 const int s = share.index(i);
                 Sampler sampler(settings.seed, x, y, std::uint64_t(s));
-                const Ray ray = primaryRay(x, y, s, sampler, sequence);
+                const Ray ray = primary.ray(x, y, s, sampler, sequence);
                 Color L = (*trace)(scene, ray, sampler, settings.maxDepth);
                 // Guard the film: a NaN, infinite, negative or huge sample is counted and replaced by black.
                 if (!Film::holds(L)) {
@@ -370,6 +425,12 @@ RenderResult render(const Scene& scene, const Camera& camera, const RenderSettin
                     const SplatTraceFunction& trace)
 {
   return renderLoop(scene, camera, settings, nullptr, &trace);
+}
+
+RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                    const WavefrontWorkers& workers, std::size_t maxKeys)
+{
+  return renderLoop(scene, camera, settings, nullptr, nullptr, &workers, std::max<std::size_t>(1, maxKeys));
 }
 
 } // namespace raylife

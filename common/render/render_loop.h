@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -158,6 +159,59 @@ struct RenderResult {
   std::vector<SampleRange> samples{}; ///< The sample indices taken (RenderSettings::share), coalesced.
 };
 
+/// One pixel sample of a wavefront (render() with a WavefrontFunction): the pixel, and the sample's index in the
+/// render, which with (seed, x, y) keys its random numbers.
+struct PixelSampleKey {
+  int x = 0;      ///< The pixel's column, in [0, width).
+  int y = 0;      ///< Its row, in [0, height), 0 at the top.
+  int sample = 0; ///< The sample's index in the render (SampleShare::index), ≥ 0.
+};
+
+/// A pixel sample's random numbers and its primary ray, the sampler having drawn what the ray took.
+struct PrimarySample {
+  Ray ray;         ///< The camera ray, through the sample's point in the pixel (and on the lens, at its time).
+  Sampler sampler; ///< The sample's random numbers from here on: the estimator's.
+};
+
+/// Makes pixel samples' primary rays exactly as render() makes them for every estimator: where in the pixel (its
+/// stratum or its PixelSequence), then a point on the lens and a time where the settings ask for them. So a
+/// wavefront's camera rays are those of any other chapter's, number for number.
+class PrimaryRays {
+public:
+  /// For images through `camera`, rendered with `settings` (its seed, pixel sampling, lens, motion and, with a
+  /// fixed spp, its strata). Both outlive this.
+  PrimaryRays(const Camera& camera, const RenderSettings& settings);
+  /// The sampler of `key` and its primary ray.
+  PrimarySample make(const PixelSampleKey& key) const
+  {
+    Sampler sampler(seed_, key.x, key.y, std::uint64_t(key.sample));
+    const PixelSequence sequence(seed_, key.x, key.y);
+    const Ray ray = this->ray(key.x, key.y, key.sample, sampler, sequence);
+    return PrimarySample{ray, sampler};
+  }
+  /// The primary ray of sample `s` of pixel (x, y), drawn from that sample's `sampler` and the pixel's
+  /// `sequence` (made for the same seed and pixel).
+  Ray ray(int x, int y, int s, Sampler& sampler, const PixelSequence& sequence) const;
+
+private:
+  const Camera& camera_;
+  std::uint64_t seed_;
+  PixelSampling pixelSampling_;
+  int strata_; // the side of the grid of strata (0: the pixel's sequence)
+  bool lens_, motion_;
+};
+
+/// A wavefront estimator (chapter 16): the radiance of every pixel sample of `keys` at once, added to out[i] for
+/// keys[i] (out.size() == keys.size(); it arrives filled with 0), each sample's camera ray and random numbers made by `primary` (so sample s of pixel
+/// (x, y) still depends on (seed, x, y, s) alone), paths of at most `maxDepth` bounces (−1: no limit). One is made
+/// for each thread of the render (WavefrontWorkers) and called by that thread only, so it may keep its queues from
+/// call to call; but what it returns must depend on its arguments alone.
+using WavefrontFunction = std::function<void(const Scene& scene, const PrimaryRays& primary,
+                                             std::span<const PixelSampleKey> keys, int maxDepth,
+                                             std::span<Color> out)>;
+/// Makes a wavefront estimator for one thread (thread-safe: called by every thread of the render at its start).
+using WavefrontWorkers = std::function<WavefrontFunction()>;
+
 /// Adaptive sampling looks at a pixel's error only once it has this many samples, and then again each time the
 /// count has grown by a quarter, in multiples of this (16, 32, 48, 64, 80, 96, 112, 128, 160, ...: the same points
 /// whatever the threads or the timing, so the image stays reproducible).
@@ -192,6 +246,13 @@ inline constexpr double kAdaptiveMeanFloor = 1.0 / 256.0;
 /// a share, or a range outside [0, spp).
 RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
                     const TraceFunction& trace);
+
+/// Renders with a wavefront estimator (chapter 16), as render() with a TraceFunction (the same tiles, batches,
+/// time budget, stop requests, adaptive sampling and shares, so the same images for any thread count), but each
+/// tile's batch of pixel samples is handed whole to the wavefront estimator of the thread that takes the tile (made
+/// by `workers`): its active pixels' samples s0 .. s1 − 1, pixel by pixel, in pieces of at most `maxKeys` (≥ 1).
+RenderResult render(const Scene& scene, const Camera& camera, const RenderSettings& settings,
+                    const WavefrontWorkers& workers, std::size_t maxKeys);
 
 /// Renders with an estimator that splats (chapter 13), as render() with a TraceFunction, but pass by pass: for each
 /// sample index s, every pixel takes its sample s (its radiance C, and splats into any pixel), then every pixel adds

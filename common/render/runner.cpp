@@ -222,9 +222,9 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const TraceFun
 
 namespace {
 
-// runChapter and runSplattingChapter: one of the two factories is set.
+// runChapter, runSplattingChapter and runWavefrontChapter: one of the three factories is set.
 int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsTraceFactory* makeTrace,
-                  const SplatTraceFactory* makeSplatTrace)
+                  const SplatTraceFactory* makeSplatTrace, const WavefrontFactory* makeWavefront = nullptr)
 {
   const std::string name = chapter.binary;
   // One process, or the ranks of an MPI job: every rank goes through the same steps, only rank 0 speaks and writes.
@@ -331,9 +331,15 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
     // Render, with Ctrl-C and SIGTERM turned into "stop at the next tile" (until the images are written).
     const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
-    RenderResult result = makeSplatTrace
-                              ? ranks.render(scene, camera, settings, (*makeSplatTrace)(scene, options.chapter))
-                              : ranks.render(scene, camera, settings, (*makeTrace)(scene, options.chapter));
+    RenderResult result = [&] {
+      if (makeSplatTrace)
+        return ranks.render(scene, camera, settings, (*makeSplatTrace)(scene, options.chapter));
+      if (makeWavefront) {
+        const Wavefront wavefront = (*makeWavefront)(scene, options.chapter);
+        return ranks.render(scene, camera, settings, wavefront.workers, wavefront.size);
+      }
+      return ranks.render(scene, camera, settings, (*makeTrace)(scene, options.chapter));
+    }();
     std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
     if (chapter.besideTrace) {
       RenderSettings same = settings;
@@ -474,6 +480,11 @@ int runChapter(int argc, char** argv, const ChapterInfo& chapter, const OptionsT
 int runSplattingChapter(int argc, char** argv, const ChapterInfo& chapter, const SplatTraceFactory& makeTrace)
 {
   return runAnyChapter(argc, argv, chapter, nullptr, &makeTrace);
+}
+
+int runWavefrontChapter(int argc, char** argv, const ChapterInfo& chapter, const WavefrontFactory& makeWavefront)
+{
+  return runAnyChapter(argc, argv, chapter, nullptr, nullptr, &makeWavefront);
 }
 
 int runChapter(int argc, char** argv, const ChapterInfo& chapter, SimpleTraceFunction trace)

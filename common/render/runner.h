@@ -88,4 +88,17 @@ using SplatTraceFactory = std::function<SplatTraceFunction(const Scene& scene, c
 /// pass (render_loop.h). Not with ChapterInfo::besideTrace or ChapterInfo::adaptiveSampling.
 int runSplattingChapter(int argc, char** argv, const ChapterInfo& chapter, const SplatTraceFactory& makeTrace);
 
+/// A chapter's wavefront estimator (chapter 16) for a loaded scene, and the most pixel samples it takes in flight at
+/// once (its wavefront, ≥ 1): the render loop hands each thread's estimator pieces of at most that many.
+struct Wavefront {
+  WavefrontWorkers workers; ///< Makes the estimator of each thread.
+  std::size_t size = 1;     ///< Most pixel samples per call.
+};
+/// Makes a chapter's wavefront estimator for a loaded scene and its own options' values, as OptionsTraceFactory.
+using WavefrontFactory = std::function<Wavefront(const Scene& scene, const ChapterOptions& options)>;
+/// The same as runChapter, for a chapter whose estimator is a wavefront (chapter 16), made per scene by
+/// `makeWavefront`: every promise of the command line holds as for the other chapters (render_loop.h).
+/// Not with ChapterInfo::besideTrace.
+int runWavefrontChapter(int argc, char** argv, const ChapterInfo& chapter, const WavefrontFactory& makeWavefront);
+
 } // namespace raylife

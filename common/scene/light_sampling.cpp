@@ -164,6 +164,12 @@ std::optional<EmitterPoint> LightSampler::sampleEmitterPoint(Real uLight, Vec2 u
 // [sample]
 std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Vec2 u, Real time) const
 {
+  const std::optional<LightChoice> chosen = choose(ref, uLight, u, time);
+  return chosen ? sampleChosen(*chosen, ref, time) : std::nullopt;
+}
+
+std::optional<LightChoice> LightSampler::choose(const Vec3& ref, Real uLight, Vec2 u, Real time) const
+{
   if (cdf_.empty())
     return std::nullopt;
   const int cell = cellOf(ref);
@@ -171,7 +177,7 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Ve
   const int light = lights_[chosen];
   const SampleTree* tree = cell < 0 ? nullptr : &cellTree_[std::size_t(cell) * lights_.size() + chosen];
   if (!tree || tree->uniform() || std::size_t(light) >= scene_.spheres.size())
-    return sampleLight(chosen, choice, ref, u, time);
+    return LightChoice{chosen, light, choice, u, 1};
 
   // A guided sphere light: u.x chooses between uniform in the cone and the learned density, and the direction
   // comes from the numbers that component gives; its pdf is the mixture's, whichever component chose it.
@@ -179,13 +185,18 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Ve
   const Vec3 center = s.centerAt(time);
   const Vec3 toCentre = center - ref;
   if (glm::dot(toCentre, toCentre) <= s.radius * s.radius)
-    return sampleLight(chosen, choice, ref, u, time); // inside the light: not guided
+    return LightChoice{chosen, light, choice, u, 1}; // inside the light: not guided
   const Real a = cellShare_[std::size_t(cell) * lights_.size() + chosen];
   const Vec2 uc = u.x < a ? Vec2(u.x / a, u.y)
                           : tree->sample(Vec2(std::min((u.x - a) / (1 - a), std::nextafter(Real(1), Real(0))), u.y));
-  std::optional<LightSample> ls = sampleLight(chosen, choice, ref, uc, time);
+  return LightChoice{chosen, light, choice, uc, a + (1 - a) * tree->pdf(uc)};
+}
+
+std::optional<LightSample> LightSampler::sampleChosen(const LightChoice& chosen, const Vec3& ref, Real time) const
+{
+  std::optional<LightSample> ls = sampleLight(chosen.index, chosen.choice, ref, chosen.u, time);
   if (ls)
-    ls->pdf *= a + (1 - a) * tree->pdf(uc);
+    ls->pdf *= chosen.guide; // (× 1 where not guided: the same bits)
   return ls;
 }
 

@@ -334,6 +334,21 @@ struct LightGuiding {
   int threads = 0;
 };
 
+/// The first half of a light sample (LightSampler::choose): the light chosen, with what probability, and the
+/// numbers its direction is to be drawn from. The second half (LightSampler::sampleChosen) draws the direction; a
+/// wavefront (chapter 16) draws those towards spheres many at a time, with the same arithmetic.
+struct LightChoice {
+  std::size_t index = 0; ///< Which of the sampler's lights (for sampleChosen).
+  /// The light: an emitter's primitive number (≥ 0: a sphere when below Scene::spheres.size(), else a triangle),
+  /// or −(i + 1) for point light i.
+  int light = -1;
+  Real choice = 0;      ///< The probability of having chosen it, in (0, 1].
+  Vec2 u{0};            ///< The numbers its direction is drawn from (the guide's, where it guides), in [0, 1)².
+  /// The factor on the direction's solid-angle pdf: the guided mixture's density over the cone's (1 where the
+  /// light is not guided, which leaves the pdf's bits unchanged).
+  Real guide = 1;
+};
+
 /// Chooses one of a scene's lights (its emissive spheres and triangles, and its point lights) in proportion to an
 /// estimate of its power, and a direction towards it.
 ///
@@ -370,6 +385,14 @@ public:
   /// @return nothing when there is no light, or the sample carries no light (ref at a point light's position, a
   /// triangle seen edge on).
   std::optional<LightSample> sample(const Vec3& ref, Real uLight, Vec2 u, Real time = 0) const;
+
+  /// The light sample() chooses from `ref` with these numbers, and the numbers its direction comes from: sample()
+  /// is sampleChosen(*choose(...)). Nothing when there is no light. (Chapter 16 draws the directions towards still
+  /// spheres itself, many at a time: sampleSphereCone(ref, centre, radius, u), its pdf choice · sphereConePdf ·
+  /// guide.)
+  std::optional<LightChoice> choose(const Vec3& ref, Real uLight, Vec2 u, Real time = 0) const;
+  /// The direction towards the light of `choice` (made by choose() for `ref` and `time`), as sample() returns it.
+  std::optional<LightSample> sampleChosen(const LightChoice& choice, const Vec3& ref, Real time = 0) const;
 
   /// The pdf with which sample() chooses, from `ref`, the direction towards `point` on emitter `primitive` (a
   /// direction that meets it there first): its choice probability times sphereConePdf or triangleLightPdf. 0 for a

@@ -10,6 +10,8 @@ thread_local std::uint64_t tRayCount = 0;
 
 std::uint64_t rayCount() { return tRayCount; }
 
+void countRays(std::uint64_t n) { tRayCount += n; }
+
 namespace {
 // The hit record of sphere `index` at parameter t, on the re-projected surface point with its error bound. Filled in
 // place in the optional that intersect returns: built as a Hit and then moved in, its bytes were copied once more on
@@ -150,6 +152,8 @@ std::optional<Hit> Scene::intersect(const Ray& ray) const
   return makeHit(*this, ray, nearest.t, nearest.primitive);
 }
 // [intersect]
+
+Hit Scene::hitAt(const Ray& ray, Real t, int primitive) const { return *makeHit(*this, ray, t, primitive); }
 
 // [occluded]
 [[gnu::flatten]] bool Scene::occluded(const Ray& ray) const

@@ -163,6 +163,11 @@ struct Scene {
   /// on a tie. Counts one ray (see rayCount()).
   std::optional<Hit> intersect(const Ray& ray) const;
 
+  /// The hit record of primitive `primitive`, which `ray` hits at `t` (as a query found it: the record intersect
+  /// makes for that answer). Counts no ray. For a wavefront (chapter 16), whose kernels find (t, primitive) for
+  /// many rays at once.
+  Hit hitAt(const Ray& ray, Real t, int primitive) const;
+
   /// Where the ray meets primitive `primitive` alone inside [ray.tmin, ray.tmax) (the test intersect applies to
   /// it), or nothing. Counts no ray. For light sampling: where a shadow ray meets the light it was aimed at.
   std::optional<Real> intersectPrimitive(const Ray& ray, int primitive) const;
@@ -209,6 +214,10 @@ Scene loadScene(const std::string& path, bool sizeGiven = false);
 /// Parses and validates scene text; `fileName` is used in messages and to find mesh files (relative to its
 /// folder). @throws SceneError.
 Scene parseScene(std::string_view text, const std::string& fileName);
+
+/// Adds `n` rays to this thread's count (rayCount): rays that a kernel traced for many at once, outside
+/// Scene::intersect and Scene::occluded (chapter 16).
+void countRays(std::uint64_t n);
 
 /// Rays this thread has traced through Scene::intersect and Scene::occluded since it started.
 /// A per-thread statistic read by the render loop (like pbrt's stat counters); never shared between threads.

@@ -1,0 +1,303 @@
+// The stream kernels of chapter 16 (render/ray_stream.h) against the scalar code they vectorise, in every
+// instruction set this machine runs (each forced in turn), bit for bit: the nearest and any sphere of a flat list
+// against the loop over intersectSphere, the hit records against sphereSurfacePoint, the directions towards spherical
+// lights against sampleSphereCone and sphereConePdf, the shadow rays against offsetRayOrigin and intersectSphere, and
+// the diffuse bounces against lambertianSample in Frame; on random rays and hits, with stream lengths that are not a
+// multiple of the lanes.
+#include "core/frame.h"
+#include "core/rng.h"
+#include "render/ray_stream.h"
+#include "scene/light_sampling.h"
+#include "shading/bsdf.h"
+
+#include <catch2/catch.hpp>
+
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <iostream>
+#include <vector>
+
+using namespace raylife;
+
+namespace {
+
+// The same bits (so +0 and −0 differ, and NaN equals the same NaN).
+bool sameBits(Real a, Real b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+// A random unit vector.
+Vec3 randomDirection(Pcg32& rng)
+{
+  auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+  const Real z = 1 - 2 * u();
+  const Real r = std::sqrt(std::max(Real(0), 1 - z * z));
+  const Real phi = 2 * kPi * u();
+  return glm::normalize(Vec3(r * std::cos(phi), r * std::sin(phi), z));
+}
+
+// Spheres like a path tracer's scenes: smallpt's huge walls (radius 1e5, the camera inside none of them but near),
+// balls of radius 1 to 20, and small ones; rays from inside the room, some starting on a sphere.
+struct Case {
+  std::vector<Sphere> spheres;
+  RayStream rays;
+};
+
+Case randomCase(std::uint64_t seed, std::size_t rayCount)
+{
+  Pcg32 rng(seed, 17);
+  auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+  Case c;
+  const Real walls[6][4] = {{1e5 + 1, 40.8, 81.6, 1e5},  {-1e5 + 99, 40.8, 81.6, 1e5}, {50, 40.8, 1e5, 1e5},
+                            {50, 40.8, -1e5 + 170, 1e5}, {50, 1e5, 81.6, 1e5},         {50, -1e5 + 81.6, 81.6, 1e5}};
+  for (const auto& w : walls)
+    c.spheres.push_back(Sphere{Vec3(w[0], w[1], w[2]), w[3], 0, Vec3(0)});
+  for (int k = 0; k < 10; ++k)
+    c.spheres.push_back(Sphere{Vec3(10 + 80 * u(), 5 + 70 * u(), 10 + 150 * u()), Real(0.5) + 20 * u(), 0, Vec3(0)});
+  c.rays.resize(rayCount);
+  for (std::size_t i = 0; i < rayCount; ++i) {
+    Vec3 o(2 + 95 * u(), 1 + 80 * u(), 1 + 168 * u());
+    const Vec3 d = randomDirection(rng);
+    if (i % 7 == 0) { // on a sphere's surface (as a spawned ray's origin nearly is)
+      const Sphere& s = c.spheres[6 + i % 10];
+      o = s.center + s.radius * randomDirection(rng);
+    }
+    const Real tmax = i % 3 == 0 ? kInfinity : Real(1) + 200 * u();
+    c.rays.set(i, Ray{o, d, 0, tmax, 0});
+  }
+  return c;
+}
+
+// The loop the kernels must equal: Scene's flat list, one sphere after the other.
+std::pair<Real, int> nearestByLoop(const std::vector<Sphere>& spheres, const Ray& ray)
+{
+  Real nearest = ray.tmax;
+  int which = -1;
+  for (std::size_t k = 0; k < spheres.size(); ++k)
+    if (const auto t = intersectSphere(ray.origin, ray.direction, spheres[k].center, spheres[k].radius, ray.tmin,
+                                       nearest)) {
+      nearest = *t;
+      which = int(k);
+    }
+  return {nearest, which};
+}
+
+// Runs `body` once for every instruction set the kernels run here, that set forced; then the best again.
+template <class F> void forEachTarget(F body)
+{
+  const std::vector<SimdTarget> targets = simdTargets();
+  REQUIRE(!targets.empty());
+  for (const SimdTarget& target : targets) {
+    forceSimdTarget(target.id);
+    REQUIRE(currentSimdTarget().id == target.id);
+    INFO("instruction set " << target.name << " (" << target.lanes << " lanes)");
+    body(target);
+  }
+  forceSimdTarget(0);
+}
+
+} // namespace
+
+TEST_CASE("stream kernels: the machine runs several instruction sets and each can be forced")
+{
+  const std::vector<SimdTarget> targets = simdTargets();
+  std::cout << "stream kernels run here on:";
+  for (const SimdTarget& t : targets)
+    std::cout << " " << t.name << " (" << t.lanes << " lanes)";
+  std::cout << "\n";
+  // Every x86-64 CPU runs at least the portable one and SSE4's; the best is the default.
+  CHECK(targets.size() >= 2);
+  CHECK(currentSimdTarget().id == targets.front().id);
+  forceSimdTarget(targets.back().id);
+  CHECK(currentSimdTarget().id == targets.back().id);
+  forceSimdTarget(0);
+  CHECK(currentSimdTarget().id == targets.front().id);
+}
+
+TEST_CASE("stream kernels: nearestSpheres and anySpheres equal the loop over intersectSphere, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    for (const std::size_t count : {std::size_t(1), std::size_t(7), std::size_t(33), std::size_t(20000)}) {
+      const Case c = randomCase(count, count);
+      const SphereList list = SphereList::from(c.spheres);
+      std::vector<Real> t(count);
+      std::vector<std::int32_t> sphere(count);
+      std::vector<std::uint8_t> occluded(count);
+      nearestSpheres(list, c.rays, count, t, sphere);
+      anySpheres(list, c.rays, count, occluded);
+      std::size_t wrong = 0, hits = 0;
+      for (std::size_t i = 0; i < count; ++i) {
+        const auto [tLoop, which] = nearestByLoop(c.spheres, c.rays.get(i));
+        hits += which >= 0;
+        wrong += sphere[i] != which || !sameBits(t[i], tLoop) || occluded[i] != (which >= 0);
+      }
+      INFO(count << " rays, " << hits << " hit");
+      CHECK(wrong == 0);
+    }
+  });
+}
+
+TEST_CASE("stream kernels: on a tie the lowest index wins, and a hit at tmax does not count")
+{
+  // Two coincident spheres: both are hit at t = 4, and the loop keeps the first (a later one must be nearer).
+  std::vector<Sphere> twins = {Sphere{Vec3(0, 0, -5), 1, 0, Vec3(0)}, Sphere{Vec3(0, 0, -5), 1, 1, Vec3(0)}};
+  RayStream rays;
+  rays.resize(1);
+  rays.set(0, Ray{Vec3(0), Vec3(0, 0, -1), 0, kInfinity, 0});
+  std::vector<Real> t(1);
+  std::vector<std::int32_t> sphere(1);
+  nearestSpheres(SphereList::from(twins), rays, 1, t, sphere);
+  CHECK(sphere[0] == 0);
+  CHECK(t[0] == Real(4));
+  // A ray that ends before the sphere misses it.
+  rays.set(0, Ray{Vec3(0), Vec3(0, 0, -1), 0, Real(4), 0});
+  nearestSpheres(SphereList::from(twins), rays, 1, t, sphere);
+  CHECK(sphere[0] == -1);
+  CHECK(t[0] == Real(4));
+}
+
+TEST_CASE("stream kernels: diffuseBounces equals lambertianSample in Frame::fromNormal, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    for (const std::size_t count : {std::size_t(1), std::size_t(5), std::size_t(17), std::size_t(50000)}) {
+      Pcg32 rng(count, 3);
+      auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+      std::vector<Real> nx(count), ny(count), nz(count), dx(count), dy(count), dz(count), u1(count), u2(count);
+      for (std::size_t i = 0; i < count; ++i) {
+        Vec3 n = randomDirection(rng), d = randomDirection(rng);
+        if (i % 11 == 0)
+          n = Vec3(0, 0, i % 22 == 0 ? 1 : -1); // the frame's special axis
+        if (i % 13 == 0)
+          d = glm::normalize(glm::cross(n, randomDirection(rng))); // in the surface: wo.z = 0 (or nearly)
+        nx[i] = n.x, ny[i] = n.y, nz[i] = n.z, dx[i] = d.x, dy[i] = d.y, dz[i] = d.z;
+        u1[i] = i % 17 == 0 ? Real(0) : u(), u2[i] = i % 19 == 0 ? Real(0.5) : u();
+      }
+      std::vector<Real> wx(count), wy(count), wz(count), cosTheta(count), pdf(count);
+      diffuseBounces({nx, ny, nz, dx, dy, dz, u1, u2}, count, {wx, wy, wz, cosTheta, pdf});
+      std::size_t wrong = 0, none = 0;
+      for (std::size_t i = 0; i < count; ++i) {
+        const Frame frame = Frame::fromNormal(Vec3(nx[i], ny[i], nz[i]));
+        const Vec3 wo = frame.toLocal(-Vec3(dx[i], dy[i], dz[i]));
+        const std::optional<BsdfSample> bs = lambertianSample(Color(1), wo, Vec2(u1[i], u2[i]));
+        if (!bs) {
+          ++none;
+          wrong += pdf[i] != 0;
+          continue;
+        }
+        const Vec3 w = frame.toWorld(bs->wi);
+        wrong += !sameBits(wx[i], w.x) || !sameBits(wy[i], w.y) || !sameBits(wz[i], w.z) ||
+                 !sameBits(cosTheta[i], bs->wi.z) || !sameBits(pdf[i], bs->pdf);
+      }
+      INFO(count << " hits, " << none << " without a sample");
+      CHECK(wrong == 0);
+    }
+  });
+}
+
+TEST_CASE("stream kernels: sphereHitPoints equals sphereSurfacePoint, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    for (const std::size_t count : {std::size_t(3), std::size_t(9), std::size_t(20000)}) {
+      const Case c = randomCase(count + 100, count);
+      std::vector<Real> ox, oy, oz, dx, dy, dz, t, cx, cy, cz, r;
+      std::vector<int> sphereOf;
+      for (std::size_t i = 0; i < count; ++i) {
+        const Ray ray = c.rays.get(i);
+        const auto [tHit, which] = nearestByLoop(c.spheres, ray);
+        if (which < 0)
+          continue;
+        const Sphere& s = c.spheres[std::size_t(which)];
+        ox.push_back(ray.origin.x), oy.push_back(ray.origin.y), oz.push_back(ray.origin.z);
+        dx.push_back(ray.direction.x), dy.push_back(ray.direction.y), dz.push_back(ray.direction.z);
+        t.push_back(tHit), cx.push_back(s.center.x), cy.push_back(s.center.y), cz.push_back(s.center.z);
+        r.push_back(s.radius);
+      }
+      const std::size_t m = t.size();
+      REQUIRE(m > 0);
+      std::vector<Real> px(m), py(m), pz(m), nx(m), ny(m), nz(m), ex(m), ey(m), ez(m);
+      sphereHitPoints({ox, oy, oz, dx, dy, dz, t, cx, cy, cz, r}, m, {px, py, pz, nx, ny, nz, ex, ey, ez});
+      std::size_t wrong = 0;
+      for (std::size_t k = 0; k < m; ++k) {
+        const SurfacePoint<Real> sp = sphereSurfacePoint(Vec3(ox[k], oy[k], oz[k]), Vec3(dx[k], dy[k], dz[k]), t[k],
+                                                         Vec3(cx[k], cy[k], cz[k]), r[k]);
+        wrong += !sameBits(px[k], sp.point.x) || !sameBits(py[k], sp.point.y) || !sameBits(pz[k], sp.point.z) ||
+                 !sameBits(nx[k], sp.normal.x) || !sameBits(ny[k], sp.normal.y) || !sameBits(nz[k], sp.normal.z) ||
+                 !sameBits(ex[k], sp.error.x) || !sameBits(ey[k], sp.error.y) || !sameBits(ez[k], sp.error.z);
+      }
+      INFO(m << " hits");
+      CHECK(wrong == 0);
+    }
+  });
+}
+
+TEST_CASE("stream kernels: sphereLightDirections equals sampleSphereCone and its pdf, from outside and inside")
+{
+  forEachTarget([](const SimdTarget&) {
+    const std::size_t count = 30001;
+    Pcg32 rng(5, 9);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    std::vector<Real> px(count), py(count), pz(count), cx(count), cy(count), cz(count), r(count), u1(count),
+        u2(count), choice(count), guide(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      const Vec3 c(100 * u() - 50, 100 * u() - 50, 100 * u() - 50);
+      const Real radius = i % 5 == 0 ? Real(1e-3) : Real(0.1) + 10 * u();
+      // Near, far (a tiny cone), inside, and on the surface.
+      const Real distance = i % 7 == 0 ? radius * u() : i % 7 == 1 ? radius : radius * (1 + 1e4 * u() * u());
+      const Vec3 p = c + distance * randomDirection(rng);
+      px[i] = p.x, py[i] = p.y, pz[i] = p.z, cx[i] = c.x, cy[i] = c.y, cz[i] = c.z, r[i] = radius;
+      u1[i] = i % 11 == 0 ? Real(0) : u(), u2[i] = u(), choice[i] = Real(0.25) + u() / 2;
+      guide[i] = i % 2 ? Real(1) : Real(0.1) + 3 * u();
+    }
+    std::vector<Real> wx(count), wy(count), wz(count), pdf(count);
+    sphereLightDirections({px, py, pz, cx, cy, cz, r, u1, u2, choice, guide}, count, {wx, wy, wz, pdf});
+    std::size_t wrong = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Vec3 p(px[i], py[i], pz[i]), c(cx[i], cy[i], cz[i]);
+      const Vec3 w = sampleSphereCone(p, c, r[i], Vec2(u1[i], u2[i]));
+      const Real expected = choice[i] * sphereConePdf(p, c, r[i]) * guide[i];
+      wrong += !sameBits(wx[i], w.x) || !sameBits(wy[i], w.y) || !sameBits(wz[i], w.z) || !sameBits(pdf[i], expected);
+    }
+    CHECK(wrong == 0);
+  });
+}
+
+TEST_CASE("stream kernels: shadowRaysToSpheres equals offsetRayOrigin and intersectSphere, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    const std::size_t count = 30002;
+    Pcg32 rng(6, 10);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    std::vector<Real> px(count), py(count), pz(count), ex(count), ey(count), ez(count), gx(count), gy(count),
+        gz(count), wx(count), wy(count), wz(count), cx(count), cy(count), cz(count), r(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      // A point on a unit sphere far from the origin (so its error bound is not tiny), a direction to either side,
+      // and a light sphere ahead, behind or around it.
+      const Vec3 n = randomDirection(rng);
+      const Vec3 p = Vec3(1e3, -2e2, 5e2) + n;
+      const Vec3 e = gamma<Real>(5) * absBranchFree(n) + gamma<Real>(2) * absBranchFree(p);
+      Vec3 w = randomDirection(rng);
+      if (i % 9 == 0)
+        w = glm::normalize(glm::cross(n, randomDirection(rng))); // along the surface: the offset's side at w·n ≈ 0
+      const Vec3 c = p + (2 + 20 * u()) * randomDirection(rng);
+      px[i] = p.x, py[i] = p.y, pz[i] = p.z, ex[i] = e.x, ey[i] = e.y, ez[i] = e.z;
+      gx[i] = n.x, gy[i] = n.y, gz[i] = n.z, wx[i] = w.x, wy[i] = w.y, wz[i] = w.z;
+      cx[i] = c.x, cy[i] = c.y, cz[i] = c.z, r[i] = i % 3 == 0 ? Real(30) : Real(0.5) + 3 * u();
+      if (i % 13 == 0) // exact zeros: the scalar path of nextAlong
+        px[i] = 0, gx[i] = 0;
+    }
+    std::vector<Real> ox(count), oy(count), oz(count), t(count);
+    shadowRaysToSpheres({px, py, pz, ex, ey, ez, gx, gy, gz, wx, wy, wz, cx, cy, cz, r}, count, {ox, oy, oz, t});
+    std::size_t wrong = 0, met = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Vec3 w(wx[i], wy[i], wz[i]);
+      const Vec3 o = offsetRayOrigin(Vec3(px[i], py[i], pz[i]), Vec3(ex[i], ey[i], ez[i]), Vec3(gx[i], gy[i], gz[i]), w);
+      const std::optional<Real> root = intersectSphere(o, w, Vec3(cx[i], cy[i], cz[i]), r[i], Real(0), kInfinity);
+      met += root.has_value();
+      wrong += !sameBits(ox[i], o.x) || !sameBits(oy[i], o.y) || !sameBits(oz[i], o.z) ||
+               !sameBits(t[i], root ? *root : kInfinity);
+    }
+    INFO(met << " of " << count << " rays meet their sphere");
+    CHECK(met > count / 10);
+    CHECK(met < count);
+    CHECK(wrong == 0);
+  });
+}
