@@ -5,6 +5,7 @@
 #   ./setup.sh --fuzz   also clang's libFuzzer runtime (tests/fuzz)
 #   ./setup.sh --browser also Chromium, for the docs screenshot check
 #   ./setup.sh --bench  also gnuplot, for the benchmark's plots (tools/bench, docs/benchmarks.md)
+#                       and xsimd, for tools/simd_bench (with libhwy-dev)
 #   ./setup.sh --embree also Embree 3, the yardstick of tools/mesh_bench (cmake --preset embree)
 #   ./setup.sh --mpi    also Open MPI, for the MPI build (cmake --preset mpi; docs/beyond-one-machine.md)
 set -euo pipefail
@@ -25,7 +26,7 @@ for arg in "$@"; do
   case "$arg" in
     --fuzz) packages+=(clang libclang-rt-14-dev libomp-14-dev) ;; # libomp: OpenMP for a clang build
     --browser) packages+=(chromium) ;;
-    --bench) packages+=(gnuplot-nox fonts-dejavu-core) ;;
+    --bench) packages+=(gnuplot-nox fonts-dejavu-core libxsimd-dev) ;; # libxsimd-dev: tools/simd_bench
     --embree) packages+=(libembree-dev) ;;
     --mpi) packages+=(openmpi-bin libopenmpi-dev) ;;
     *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench, --mpi, --embree)" >&2; exit 2 ;;
