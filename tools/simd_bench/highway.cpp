@@ -96,32 +96,19 @@ int64_t highwayTarget(Target target) {
   return 0;
 }
 
-// For the length of one call, the CPU seems to support `target` alone (Highway's own tests do the same), so that
-// HWY_DYNAMIC_DISPATCH picks it.
-class ForcedTarget {
-public:
-  explicit ForcedTarget(Target target) { hwy::SetSupportedTargetsForTest(highwayTarget(target)); }
-  ~ForcedTarget() { hwy::SetSupportedTargetsForTest(0); }
-  ForcedTarget(const ForcedTarget&) = delete;
-  ForcedTarget& operator=(const ForcedTarget&) = delete;
-};
 } // namespace
 
 bool highwaySupports(Target target) { return (hwy::SupportedTargets() & HWY_TARGETS & highwayTarget(target)) != 0; }
 
-void closestHitHighway(Target target, const Rays& rays, const Spheres& spheres, const Hits& hits) {
-  const ForcedTarget forced(target);
+// The CPU seems to support `target` alone, so that HWY_DYNAMIC_DISPATCH picks it (Highway's own tests do the same).
+void highwayForceTarget(Target target) { hwy::SetSupportedTargetsForTest(highwayTarget(target)); }
+void highwayReleaseTarget() { hwy::SetSupportedTargetsForTest(0); }
+
+void closestHitHighway(const Rays& rays, const Spheres& spheres, const Hits& hits) {
   HWY_DYNAMIC_DISPATCH(closestHit)(rays, spheres, hits);
 }
 
-void shadeHighway(Target target, const HitRecords& records, const Bounces& out) {
-  const ForcedTarget forced(target);
-  HWY_DYNAMIC_DISPATCH(shade)(records, out);
-}
-
-void closestHitHighwayBest(const Rays& rays, const Spheres& spheres, const Hits& hits) {
-  HWY_DYNAMIC_DISPATCH(closestHit)(rays, spheres, hits);
-}
+void shadeHighway(const HitRecords& records, const Bounces& out) { HWY_DYNAMIC_DISPATCH(shade)(records, out); }
 
 const char* highwayBestTarget() {
   const int64_t targets = hwy::SupportedTargets() & HWY_TARGETS;

@@ -52,12 +52,15 @@ void shadeScalar(const HitRecords& records, const Bounces& out);
 // The same closest hit in double: which float result is right where two disagree.
 void closestHitScalarDouble(const Rays& rays, const Spheres& spheres, const Hits& hits);
 
-// Google Highway (highway.cpp): HWY_DYNAMIC_DISPATCH, forced to `target` for the call. The target must be supported.
+// Google Highway (highway.cpp): HWY_DYNAMIC_DISPATCH, which calls the best target the CPU supports, or the one
+// forced by highwayForceTarget until highwayReleaseTarget. Forcing costs nothing measurable; the first plain call
+// after a release reads the CPU's features again (CPUID, about 8 us in this virtual machine), as the first call of a
+// process does.
 bool highwaySupports(Target target);
-void closestHitHighway(Target target, const Rays& rays, const Spheres& spheres, const Hits& hits);
-void shadeHighway(Target target, const HitRecords& records, const Bounces& out);
-// The same through plain HWY_DYNAMIC_DISPATCH, as a user would call it: the best target the CPU supports.
-void closestHitHighwayBest(const Rays& rays, const Spheres& spheres, const Hits& hits);
+void highwayForceTarget(Target target);
+void highwayReleaseTarget();
+void closestHitHighway(const Rays& rays, const Spheres& spheres, const Hits& hits);
+void shadeHighway(const HitRecords& records, const Bounces& out);
 const char* highwayBestTarget();
 
 // xsimd 8.1 (xsimd_dispatch.cpp; kernels in xsimd_kernels.h, one unit per architecture).
