@@ -5,7 +5,7 @@
 #   ./setup.sh --fuzz   also clang's libFuzzer runtime (tests/fuzz)
 #   ./setup.sh --browser also Chromium, for the docs screenshot check
 #   ./setup.sh --bench  also gnuplot, for the benchmark's plots (tools/bench, docs/benchmarks.md)
-#                       and xsimd, for tools/simd_bench (with libhwy-dev)
+#                       and xsimd, for tools/simd_bench
 #   ./setup.sh --embree also Embree 3, the yardstick of tools/mesh_bench (cmake --preset embree)
 #   ./setup.sh --mpi    also Open MPI, for the MPI build (cmake --preset mpi; docs/beyond-one-machine.md)
 set -euo pipefail
