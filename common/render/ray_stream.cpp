@@ -156,6 +156,15 @@ void AnySpheres(const SphereList& spheres, const RayStream& rays, std::size_t co
   }
 }
 
+// c[0] + w·(c[1] + w·(c[2] + … + w·c[N − 1])) by Horner's scheme, innermost first: math.h's polynomials' order.
+template <std::size_t N> HWY_INLINE V horner(D d, V w, const Real (&c)[N])
+{
+  V r = hn::Set(d, c[N - 1]);
+  for (std::size_t k = N - 1; k-- > 0;)
+    r = hn::Add(hn::Set(d, c[k]), hn::Mul(w, r));
+  return r;
+}
+
 /// [diffuseBounces]
 // sinCos2Pi (math.h), lane by lane: the octant of u, its nearest quarter turn q, f = 4u − q, the two polynomials
 // in f², and the rotation by q quarter turns, whose factors (0 or ±1) make it exact.
@@ -167,37 +176,26 @@ HWY_INLINE void sinCos2PiLanes(D d, V u, V& sinOut, V& cosOut)
   const VI quarter = hn::ShiftRight<1>(hn::Add(octant, hn::Set(di, 1)));
   const V f = hn::Sub(hn::Mul(u, hn::Set(d, Real(4))), hn::ConvertTo(d, quarter));
   const V w = hn::Mul(f, f);
-  auto c = [&](double x) { return hn::Set(d, Real(x)); };
   V s, co;
   if constexpr (sizeof(Real) == 8) {
-    s = hn::Mul(f, hn::Add(c(1.5707963267948966),
-                           hn::Mul(w, hn::Add(c(-6.4596409750624432e-1),
-                                              hn::Mul(w, hn::Add(c(7.9692626246043003e-2),
-                                                                 hn::Mul(w, hn::Add(c(-4.681754132340976e-3),
-                                                                                    hn::Mul(w, hn::Add(c(1.6044115074219091e-4),
-                                                                                                       hn::Mul(w, hn::Add(c(-3.5986433529823097e-6),
-                                                                                                                          hn::Mul(w, c(5.633933781537854e-8))))))))))))));
-    co = hn::Sub(c(1), hn::Mul(w, hn::Add(c(1.2337005501361698),
-                                          hn::Mul(w, hn::Add(c(-2.5366950790104782e-1),
-                                                             hn::Mul(w, hn::Add(c(2.0863480763340773e-2),
-                                                                                hn::Mul(w, hn::Add(c(-9.1926027454684462e-4),
-                                                                                                   hn::Mul(w, hn::Add(c(2.5202039028029176e-5),
-                                                                                                                      hn::Mul(w, hn::Add(c(-4.7106784055052271e-7),
-                                                                                                                                         hn::Mul(w, c(6.3293963449674235e-9)))))))))))))));
+    static constexpr Real p[] = {1.5707963267948966,     -6.4596409750624432e-1, 7.9692626246043003e-2,
+                                 -4.681754132340976e-3,  1.6044115074219091e-4,  -3.5986433529823097e-6,
+                                 5.633933781537854e-8};
+    static constexpr Real q[] = {1.2337005501361698,     -2.5366950790104782e-1, 2.0863480763340773e-2,
+                                 -9.1926027454684462e-4, 2.5202039028029176e-5,  -4.7106784055052271e-7,
+                                 6.3293963449674235e-9};
+    s = hn::Mul(f, horner(d, w, p));
+    co = hn::Sub(hn::Set(d, Real(1)), hn::Mul(w, horner(d, w, q)));
   } else {
-    auto cf = [&](float x) { return hn::Set(d, Real(x)); };
-    s = hn::Mul(f, hn::Add(cf(1.57079632f),
-                           hn::Mul(w, hn::Add(cf(-6.45963478e-1f),
-                                              hn::Mul(w, hn::Add(cf(7.96802176e-2f), hn::Mul(w, cf(-4.60214921e-3f))))))));
-    co = hn::Sub(cf(1), hn::Mul(w, hn::Add(cf(1.23370055f),
-                                           hn::Mul(w, hn::Add(cf(-2.5366941e-1f),
-                                                              hn::Mul(w, hn::Add(cf(2.08615283e-2f),
-                                                                                 hn::Mul(w, cf(-9.06739898e-4f)))))))));
+    static constexpr Real p[] = {1.57079632f, -6.45963478e-1f, 7.96802176e-2f, -4.60214921e-3f};
+    static constexpr Real q[] = {1.23370055f, -2.5366941e-1f, 2.08615283e-2f, -9.06739898e-4f};
+    s = hn::Mul(f, horner(d, w, p));
+    co = hn::Sub(hn::Set(d, Real(1)), hn::Mul(w, horner(d, w, q)));
   }
   // (cos qπ/2, sin qπ/2): a = {1, 0, −1, 0}[q & 3] and b = {1, 0, −1, 0}[(q + 3) & 3].
   const VI q3 = hn::And(quarter, hn::Set(di, 3));
   auto table = [&](VI k) {
-    const V one = c(1), minusOne = c(-1), zero = hn::Zero(d);
+    const V one = hn::Set(d, Real(1)), minusOne = hn::Set(d, Real(-1)), zero = hn::Zero(d);
     return hn::IfThenElse(hn::RebindMask(d, hn::Eq(k, hn::Set(di, 0))), one,
                           hn::IfThenElse(hn::RebindMask(d, hn::Eq(k, hn::Set(di, 2))), minusOne, zero));
   };

@@ -289,7 +289,8 @@ TEST_CASE("stream kernels: shadowRaysToSpheres equals offsetRayOrigin and inters
     std::size_t wrong = 0, met = 0;
     for (std::size_t i = 0; i < count; ++i) {
       const Vec3 w(wx[i], wy[i], wz[i]);
-      const Vec3 o = offsetRayOrigin(Vec3(px[i], py[i], pz[i]), Vec3(ex[i], ey[i], ez[i]), Vec3(gx[i], gy[i], gz[i]), w);
+      const Vec3 o =
+          offsetRayOrigin(Vec3(px[i], py[i], pz[i]), Vec3(ex[i], ey[i], ez[i]), Vec3(gx[i], gy[i], gz[i]), w);
       const std::optional<Real> root = intersectSphere(o, w, Vec3(cx[i], cy[i], cz[i]), r[i], Real(0), kInfinity);
       met += root.has_value();
       wrong += !sameBits(ox[i], o.x) || !sameBits(oy[i], o.y) || !sameBits(oz[i], o.z) ||
