@@ -135,6 +135,29 @@ TEST_CASE("check: chapter 6 with a wall's colour changed fails")
   CHECK(renderAndCheck6(STEP06, {scene}, dir.path()).status == 1);
 }
 
+TEST_CASE("check: chapter 16 at another seed passes - with smallpt's lamp 5% too bright or a wall recoloured it fails")
+{
+  // Graded in cells of 4x4 pixels (tools/check/chapters.h): the cells must still see a small change.
+  TempDir dir;
+  auto renderAndCheck16 = [&](const std::vector<std::string>& scene) {
+    std::vector<std::string> args = scene;
+    for (const char* a : {"--width", "64", "--height", "48", "--spp", "64", "--seed", "98", "--quiet", "-o",
+                          "image.pfm", "--stats", "image.json"})
+      args.emplace_back(a);
+    render(STEP16, args, dir.path());
+    return check({"16", "image.pfm"}, dir.path());
+  };
+  CHECK(renderAndCheck16({}).status == 0);
+  const std::string bright = editedScene("smallpt.json", dir.path(), [](json& s) {
+    s["materials"]["lamp"]["emission"] = {12.6, 12.6, 12.6};
+  });
+  CHECK(renderAndCheck16({bright}).status == 1);
+  const std::string recoloured = editedScene("smallpt.json", dir.path(), [](json& s) {
+    s["materials"]["red"]["color"] = {0.75, 0.3, 0.25};
+  });
+  CHECK(renderAndCheck16({recoloured}).status == 1);
+}
+
 TEST_CASE("check: chapter 6's loop without the cosine fails")
 {
   TempDir dir;

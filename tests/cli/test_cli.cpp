@@ -551,6 +551,11 @@ TEST_CASE("Ctrl-C (SIGINT) during a render writes the image so far and exits wit
   checkInterruptedRender(SIGINT);
 }
 
+TEST_CASE("Ctrl-C during a render of chapter 16 (a wavefront of samples at a time) writes the image so far")
+{
+  checkInterruptedRender(SIGINT, STEP16, RAYLIFE_SCENES_DIR "/smallpt.json");
+}
+
 TEST_CASE("SIGTERM during a render writes the image so far and exits with 130")
 {
   checkInterruptedRender(SIGTERM);

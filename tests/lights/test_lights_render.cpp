@@ -237,10 +237,12 @@ void checkAnalytic(const std::string& sceneFile, const std::string& args, int k,
   const Scene scene = loadScene(sceneFile);
   const Expectation e = expectation(scene, k, [&](const std::optional<Hit>& h) { return value(scene, h); });
   const Image none(e.mean.width, e.mean.height);
-  // Chapter 13 (bidirectional path tracing) too: its light subpaths, connections and splats against the closed forms.
+  // Chapter 13 (bidirectional path tracing) too: its light subpaths, connections and splats against the closed forms;
+  // and chapter 16, chapter 8 as a wavefront.
   for (const auto& [binary, chapter] : {std::pair{std::string(RAYLIFE_STEP07), "chapter 7"},
                                         std::pair{std::string(RAYLIFE_STEP08), "chapter 8"},
-                                        std::pair{std::string(RAYLIFE_STEP13), "chapter 13"}}) {
+                                        std::pair{std::string(RAYLIFE_STEP13), "chapter 13"},
+                                        std::pair{std::string(RAYLIFE_STEP16), "chapter 16"}}) {
     const ChapterRender r = run(binary, sceneFile, args, what + chapter);
     CHECK(compare(r.mean, r.variance, e.mean, none, what + ", " + chapter, &e.use, 1, systematic).passed());
   }
@@ -248,20 +250,20 @@ void checkAnalytic(const std::string& sceneFile, const std::string& args, int k,
 
 } // namespace
 
-TEST_CASE("analytic: white furnace of albedo 1 renders 1 for chapters 7, 8 and 13")
+TEST_CASE("analytic: white furnace of albedo 1 renders 1 for chapters 7, 8, 13 and 16")
 {
   checkAnalytic(kScenes + "/analytic/furnace.json", "--spp 64 --seed 1", 1,
                 [](const Scene&, const std::optional<Hit>&) { return Color(1); }, "white furnace");
 }
 
-TEST_CASE("analytic: white furnace of albedo 0.5 renders 0.5 and the sky 1 for chapters 7, 8 and 13")
+TEST_CASE("analytic: white furnace of albedo 0.5 renders 0.5 and the sky 1 for chapters 7, 8, 13 and 16")
 {
   checkAnalytic(kScenes + "/analytic/furnace_half.json", "--spp 16 --seed 2", 4,
                 [](const Scene&, const std::optional<Hit>& h) { return h ? Color(Real(0.5)) : Color(1); },
                 "half furnace");
 }
 
-TEST_CASE("analytic: inside an emitting sphere chapters 7, 8 and 13 see Le/(1 − ρ) (light sampled from inside)")
+TEST_CASE("analytic: inside an emitting sphere chapters 7, 8, 13 and 16 see Le/(1 − ρ) (light sampled from inside)")
 {
   checkAnalytic(kScenes + "/analytic/inside_sphere.json", "--spp 256 --seed 3", 1,
                 [](const Scene& s, const std::optional<Hit>&) {
@@ -277,7 +279,7 @@ TEST_CASE("analytic: inside an emitting sphere chapters 7, 8 and 13 see Le/(1 �
 // build allows that much systematic error in the image mean. The double build allows none.
 constexpr double kFloorSystematic = sizeof(Real) == 4 ? 2e-3 : 0;
 
-TEST_CASE("analytic: a floor under a spherical light is ρ Le (R/D)² cosθ for chapters 7, 8 and 13")
+TEST_CASE("analytic: a floor under a spherical light is ρ Le (R/D)² cosθ for chapters 7, 8, 13 and 16")
 {
   checkAnalytic(kScenes + "/analytic/area_light.json", "--spp 256 --seed 4", 4,
                 [](const Scene& s, const std::optional<Hit>& h) -> Color {
@@ -296,7 +298,7 @@ TEST_CASE("analytic: a floor under a spherical light is ρ Le (R/D)² cosθ for 
                 "floor under a spherical light", kFloorSystematic);
 }
 
-TEST_CASE("analytic: a floor under an emissive quad is ρ Le E/π by Lambert's formula for chapters 7, 8 and 13")
+TEST_CASE("analytic: a floor under an emissive quad is ρ Le E/π by Lambert's formula for chapters 7, 8, 13 and 16")
 {
   // The floor is a quad of two triangles, the lamp a tilted quad of two triangles (a triangle light each, sampled by
   // solid angle); the floor's radiance is ρ/π times the lamp's irradiance there (polygon_irradiance.h). The

@@ -24,8 +24,9 @@ struct Chapter {
   std::string scene;
 };
 // (Chapter 13 splats: a share of the sample indices holds whole passes of light paths, splats and all.)
+// (Chapter 16 renders a wavefront of pixel samples at a time: a share of the indices is still whole samples.)
 const Chapter kChapters[] = {{STEP04, "spheres.json"}, {STEP06, "cornell.json"}, {STEP07, "cornell.json"},
-                             {STEP13, "caustics.json"}};
+                             {STEP13, "caustics.json"}, {STEP16, "smallpt.json"}};
 
 // A .film file's exact sums: what follows its header (the header's seconds differ from run to run).
 std::string sums(const fs::path& film)
@@ -51,7 +52,7 @@ void renderIn(const TempDir& dir, const Chapter& chapter, std::vector<std::strin
 
 } // namespace
 
-TEST_CASE("partial films of chapters 4 - 6 - 7 and 13 merged in any order give the one-process bytes")
+TEST_CASE("partial films of chapters 4 - 6 - 7 - 13 and 16 merged in any order give the one-process bytes")
 {
   for (const Chapter& chapter : kChapters) {
     INFO(name(chapter.binary));

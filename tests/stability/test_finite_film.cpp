@@ -79,6 +79,14 @@ TEST_CASE("stability 10: every stress scene renders in chapters 10-13 with no ba
                          "--width 48 --height 36 --spp 4", "10-13");
 }
 
+TEST_CASE("stability 10: every stress scene renders in chapter 16 (the wavefront) with no bad sample",
+          "[stability][finite]")
+{
+  // Chapter 8's estimator through the stream kernels: huge and far spheres, grazing rays, a light around the
+  // shading points, all one ray per vector lane.
+  renderEveryStressScene({"step16_wavefront"}, "--width 48 --height 36 --spp 4", "16");
+}
+
 TEST_CASE("stability 10 (naive): a light direction normalised without a check puts NaN in the render",
           "[stability][finite]")
 {

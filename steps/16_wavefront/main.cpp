@@ -1,0 +1,506 @@
+// Chapter 16 — making it faster on the CPU: chapter 8's estimator as a wavefront of paths.
+//
+// Chapters 1 to 15 follow one path at a time: trace a ray, shade the hit, trace the next ray, all for one pixel
+// sample before the next begins. That reads well, and chapter 9 made it about as fast as one path at a time goes.
+// But a modern core does eight or sixteen floating-point operations in one instruction (SIMD), and one path has
+// nothing to put beside its own arithmetic: the lanes stay idle.
+// So this chapter keeps chapter 8's estimator (light sampling and BSDF sampling weighted by MIS, the same lights,
+// materials and pdfs) and changes only how the work is organised. Many paths are in flight at once, a wavefront,
+// stored field by field (all the rays' origins' x side by side, then their y, ...), and each step of the estimator
+// is a stage that runs over the whole wavefront before the next stage begins:
+//   generate → extend (nearest hit) → shade (grouped by material: light sample, BSDF sample, roulette)
+//            → connect (shadow rays) → back to extend with the paths that go on.
+// Inside a stage the same arithmetic is done for every path, so it runs one path per SIMD lane (render/ray_stream.h:
+// eight doubles to a register with AVX-512). Each stage could be a GPU kernel as it stands: chapter 17 does that.
+// A path's random numbers are still its own (seed, pixel, sample), drawn in chapter 8's order, so the image is the
+// same for any thread count and any wavefront size, and it agrees with chapter 8's by the z-test.
+#include "core/frame.h"
+#include "core/sampling.h"
+#include "render/guided_lights.h"
+#include "render/ray_stream.h"
+#include "render/runner.h"
+#include "scene/light_sampling.h"
+#include "scene/scene_plan.h"
+#include "shading/bsdf.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+using namespace raylife;
+
+/// Which MIS heuristic weights the two strategies (as chapter 8).
+enum class Heuristic { Power, Balance };
+
+Real misWeight(Heuristic heuristic, Real p, Real q)
+{
+  return heuristic == Heuristic::Power ? powerHeuristic(p, q) : balanceHeuristic(p, q);
+}
+
+/// [paths]
+// Every path in flight, stored field by field (structure of arrays): path i is entry i of every array. A stage
+// reads a field of many paths in a row, which is one load per SIMD register and whole cache lines of use.
+struct Paths {
+  RayStream ray;                        // the ray the path follows next (origin, direction, tmax)
+  std::vector<Real> time;               // that ray's time (motion blur)
+  std::vector<Color> beta;              // the throughput: the product of f·|cosθ|/pdf so far
+  std::vector<Sampler> sampler;         // the path's random numbers, keyed by (seed, pixel, sample)
+  std::vector<std::uint8_t> specular;   // the last bounce was the camera or a delta lobe (MIS weight 1)
+  std::vector<Real> bsdfPdf;            // the pdf with which the last vertex's BSDF chose the ray
+  std::vector<Vec3> from;               // that vertex
+  std::vector<std::uint32_t> slot;      // where its radiance goes: its pixel sample's index
+
+  std::size_t size() const { return time.size(); }
+  void resize(std::size_t n)
+  {
+    ray.resize(n), time.resize(n), beta.resize(n), sampler.resize(n, Sampler(0, 0, 0, 0)), specular.resize(n),
+        bsdfPdf.resize(n), from.resize(n), slot.resize(n);
+  }
+  // Path `from` moves to place `to` (to ≤ from): how the paths that go on close up behind those that ended.
+  void move(std::size_t src, std::size_t dst)
+  {
+    ray.set(dst, ray.get(src));
+    time[dst] = time[src], beta[dst] = beta[src], sampler[dst] = sampler[src], specular[dst] = specular[src],
+    bsdfPdf[dst] = bsdfPdf[src], from[dst] = from[src], slot[dst] = slot[src];
+  }
+};
+/// [paths]
+
+/// The shadow rays of one round, with the light each would add if it gets through (connect's queue).
+struct ShadowRays {
+  RayStream ray;
+  std::vector<Color> light;
+  std::vector<std::uint32_t> slot;
+  std::vector<Real> time;
+  void clear() { ray.resize(0), light.clear(), slot.clear(), time.clear(); }
+  void push(const Ray& r, const Color& L, std::uint32_t s)
+  {
+    const std::size_t i = ray.size();
+    ray.resize(i + 1);
+    ray.set(i, r);
+    light.push_back(L), slot.push_back(s), time.push_back(r.time);
+  }
+};
+
+/// The sphere hits of a round by coordinate: extend's input to sphereHitPoints and its output.
+struct SphereHitColumns {
+  std::vector<std::uint32_t> path; // which path each entry is
+  std::vector<Real> ox, oy, oz, dx, dy, dz, t, cx, cy, cz, radius, px, py, pz, nx, ny, nz, ex, ey, ez;
+  void resize(std::size_t n)
+  {
+    path.resize(n);
+    for (std::vector<Real>* v : {&ox, &oy, &oz, &dx, &dy, &dz, &t, &cx, &cy, &cz, &radius, &px, &py, &pz, &nx, &ny,
+                                 &nz, &ex, &ey, &ez})
+      v->resize(n);
+  }
+};
+
+/// The light samples towards still spheres of a round by coordinate: shade's input to sphereLightDirections and
+/// shadowRaysToSpheres, and their output.
+struct SphereLightColumns {
+  std::vector<std::uint32_t> path;  // which path each entry is
+  std::vector<Color> light;         // what the shadow ray brings if it gets through (once f and the weight are known)
+  std::vector<std::uint8_t> useful; // f > 0: the shadow ray is worth tracing
+  std::vector<Real> px, py, pz, cx, cy, cz, radius, u1, u2, choice, guide, wx, wy, wz, pdf, ex, ey, ez, gx, gy, gz,
+      ox, oy, oz, t;
+  void resize(std::size_t n)
+  {
+    path.resize(n), light.resize(n), useful.resize(n);
+    for (std::vector<Real>* v : {&px, &py, &pz, &cx, &cy, &cz, &radius, &u1, &u2, &choice, &guide, &wx, &wy, &wz, &pdf,
+                                 &ex, &ey, &ez, &gx, &gy, &gz, &ox, &oy, &oz, &t})
+      v->resize(n);
+  }
+};
+
+/// The queues and scratch arrays of one wavefront, kept from round to round (a round allocates nothing once the
+/// first has sized them).
+struct Queues {
+  Paths paths;
+  // extend → shade: the nearest hit of every path's ray; found[i] says whether path i hit anything.
+  std::vector<Hit> hit;
+  std::vector<std::uint8_t> found;
+  std::vector<Real> t;              // what each ray hits (−1: nothing) and where
+  std::vector<std::int32_t> primitive;
+  SphereHitColumns sphereHits;      // and the hit records' points, normals and error bounds
+  SphereLightColumns sphereLights;  // shade: light samples towards still spheres
+  // shade: the paths grouped by material, and which go on.
+  std::vector<std::uint32_t> diffuse, other;
+  std::vector<std::uint8_t> goesOn;
+  // shade's diffuse bounces, by coordinate (the stream kernel's input and output).
+  std::vector<Real> nx, ny, nz, dx, dy, dz, u1, u2, wx, wy, wz, cosTheta, pdf;
+  // shade → connect: shadow rays, and the light each brings if it gets through.
+  ShadowRays shadows;
+  std::vector<std::uint8_t> blocked;
+};
+
+/// What the stages need of the scene: the scene, its lights, and whether its primitives are a flat list of still
+/// spheres, which the stream kernels test many rays at a time (else each ray goes through Scene::intersect).
+struct Stages {
+  const Scene& scene;
+  LightSampler lights;
+  bool sampleLights;
+  Heuristic heuristic;
+  bool sphereKernels;
+  SphereList spheres;
+};
+
+/// [generate]
+// Stage 1, generate: each pixel sample's camera ray and random numbers, made as every chapter makes them.
+void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, Paths& paths)
+{
+  paths.resize(keys.size());
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    const PrimarySample p = primary.make(keys[i]);
+    paths.ray.set(i, p.ray);
+    paths.time[i] = p.ray.time;
+    paths.beta[i] = Color(1);
+    paths.sampler[i] = p.sampler;
+    paths.specular[i] = 1;
+    paths.bsdfPdf[i] = 0;
+    paths.from[i] = Vec3(0);
+    paths.slot[i] = std::uint32_t(i);
+  }
+}
+/// [generate]
+
+/// [extend]
+// Stage 2, extend: the nearest hit of every path's ray. First what each ray hits: in a short list of still spheres
+// one ray per lane (the stream kernel); in a tree one ray at a time (chapter 9's walk, which tests a node's eight
+// boxes in the lanes). Then the hit records: on still spheres many at a time, on triangles and moving spheres one by
+// one. (A short list with triangles or motion goes through the scene's own query, record and all.)
+void extend(const Stages& st, Queues& q)
+{
+  const Scene& scene = st.scene;
+  const Paths& paths = q.paths;
+  const std::size_t n = paths.size();
+  q.hit.resize(n);
+  q.found.assign(n, 0);
+  q.t.resize(n), q.primitive.resize(n);
+  if (st.sphereKernels) {
+    nearestSpheres(st.spheres, paths.ray, n, q.t, q.primitive);
+  } else if (scene.usesAccelerator()) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::optional<BvhHit> h = scene.accelerator.intersect(paths.ray.get(i, paths.time[i]));
+      q.t[i] = h ? h->t : 0;
+      q.primitive[i] = h ? h->primitive : -1;
+    }
+  } else {
+    for (std::size_t i = 0; i < n; ++i)
+      if (const std::optional<Hit> h = scene.intersect(paths.ray.get(i, paths.time[i]))) {
+        q.hit[i] = *h;
+        q.found[i] = 1;
+      }
+    return;
+  }
+  countRays(n);
+  SphereHitColumns& h = q.sphereHits;
+  h.resize(n);
+  std::size_t m = 0;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const int primitive = q.primitive[i];
+    if (primitive < 0)
+      continue;
+    q.found[i] = 1;
+    if (std::size_t(primitive) >= scene.spheres.size() || scene.spheres[std::size_t(primitive)].moving()) {
+      q.hit[i] = scene.hitAt(paths.ray.get(i, paths.time[i]), q.t[i], primitive);
+      continue;
+    }
+    const Sphere& s = scene.spheres[std::size_t(primitive)];
+    h.path[m] = i, h.t[m] = q.t[i], h.cx[m] = s.center.x, h.cy[m] = s.center.y, h.cz[m] = s.center.z;
+    h.radius[m] = s.radius, h.ox[m] = paths.ray.ox[i], h.oy[m] = paths.ray.oy[i], h.oz[m] = paths.ray.oz[i];
+    h.dx[m] = paths.ray.dx[i], h.dy[m] = paths.ray.dy[i], h.dz[m] = paths.ray.dz[i];
+    ++m;
+  }
+  // The sphere hits' points, normals and error bounds (sphereSurfacePoint), many at a time.
+  sphereHitPoints({h.ox, h.oy, h.oz, h.dx, h.dy, h.dz, h.t, h.cx, h.cy, h.cz, h.radius}, m,
+                  {h.px, h.py, h.pz, h.nx, h.ny, h.nz, h.ex, h.ey, h.ez});
+  for (std::size_t k = 0; k < m; ++k) {
+    const std::uint32_t i = h.path[k];
+    Hit& hit = q.hit[i];
+    hit.t = h.t[k];
+    hit.point = Vec3(h.px[k], h.py[k], h.pz[k]);
+    hit.normal = hit.geometricNormal = Vec3(h.nx[k], h.ny[k], h.nz[k]);
+    hit.pointError = Vec3(h.ex[k], h.ey[k], h.ez[k]);
+    hit.primitive = q.primitive[i];
+    hit.material = scene.spheres[std::size_t(q.primitive[i])].material;
+    hit.time = paths.time[i];
+  }
+}
+/// [extend]
+
+/// [shade]
+// Stage 3, shade: at every hit, what chapter 8's loop does at a vertex. Emission found by the BSDF's ray (weighted
+// against light sampling); a light sample, whose shadow ray goes to connect's queue with the light it would bring;
+// the BSDF sample that continues the path; Russian roulette. The paths are taken grouped by material: the diffuse
+// ones' bounces together through the stream kernel, the others one by one. Paths that end are dropped, and those
+// that go on close up at the front of the wavefront.
+void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Color> out)
+{
+  const Scene& scene = st.scene;
+  Paths& paths = q.paths;
+  const std::size_t n = paths.size();
+  auto material = [&](std::uint32_t i) -> const Material& { return scene.materials[std::size_t(q.hit[i].material)]; };
+  // Misses and emission first; then which paths shade, grouped: the diffuse ones, then the rest by type.
+  q.diffuse.clear(), q.other.clear();
+  for (std::uint32_t i = 0; i < n; ++i) {
+    Color& L = out[paths.slot[i]];
+    if (!q.found[i]) { // the ray left the scene: the background, which only BSDF sampling finds (weight 1)
+      L += paths.beta[i] * scene.background;
+      continue;
+    }
+    const Hit& hit = q.hit[i];
+    const Material& m = material(i);
+    // Le(x, ωo), found by BSDF sampling: weighted against the chance that light sampling found it too.
+    if (m.isEmissive())
+      L += paths.beta[i] * m.emission *
+           (paths.specular[i] ? Real(1)
+                              : misWeight(st.heuristic, paths.bsdfPdf[i],
+                                          st.lights.pdf(paths.from[i], hit.primitive, hit.point, hit.time)));
+    if (bounce == maxDepth)
+      continue;
+    (m.type == MaterialType::Diffuse ? q.diffuse : q.other).push_back(i);
+  }
+  std::stable_sort(q.other.begin(), q.other.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return material(a).type < material(b).type; });
+
+  // Light sampling (as chapters 7 and 8): a light, a direction towards it, and its shadow ray into connect's
+  // queue. A still sphere's direction and shadow ray are left to the stream kernels (below) when `sphereLanes`.
+  SphereLightColumns& sl = q.sphereLights;
+  sl.resize(n);
+  std::size_t nl = 0;
+  auto sampleLight = [&](std::uint32_t i, const Frame& frame, const Vec3& wo, const Material& m, bool sphereLanes) {
+    const Hit& hit = q.hit[i];
+    const Real uLight = paths.sampler[i].next1D();
+    const Vec2 uDirection = paths.sampler[i].next2D();
+    // (With no light to sample, the numbers are drawn all the same, so the path is unchanged.)
+    const std::optional<LightChoice> chosen =
+        st.sampleLights ? st.lights.choose(hit.point, uLight, uDirection, hit.time) : std::nullopt;
+    if (!chosen)
+      return;
+    if (sphereLanes && chosen->light >= 0 && std::size_t(chosen->light) < scene.spheres.size() &&
+        !scene.spheres[std::size_t(chosen->light)].moving()) {
+      const Sphere& s = scene.spheres[std::size_t(chosen->light)];
+      sl.path[nl] = i, sl.px[nl] = hit.point.x, sl.py[nl] = hit.point.y, sl.pz[nl] = hit.point.z;
+      sl.cx[nl] = s.center.x, sl.cy[nl] = s.center.y, sl.cz[nl] = s.center.z, sl.radius[nl] = s.radius;
+      sl.u1[nl] = chosen->u.x, sl.u2[nl] = chosen->u.y, sl.choice[nl] = chosen->choice, sl.guide[nl] = chosen->guide;
+      sl.light[nl] = scene.materials[std::size_t(s.material)].emission; // Li, until f and the weight join it
+      ++nl;
+      return;
+    }
+    const std::optional<LightSample> ls = st.lights.sampleChosen(*chosen, hit.point, hit.time);
+    if (!ls)
+      return;
+    const Vec3 wi = frame.toLocal(ls->wi);
+    const Color f = bsdfEval(m, wo, wi);
+    if (f == Color(0))
+      return;
+    const Real weight = ls->delta ? 1 : misWeight(st.heuristic, ls->pdf, bsdfPdf(m, wo, wi));
+    const Color light = paths.beta[i] * f * std::abs(wi.z) * ls->Li * (weight / ls->pdf);
+    // The shadow ray: to a point light, stopping short of it; to an emitter, up to where it first meets it.
+    if (ls->delta) {
+      q.shadows.push(spawnRayTo(hit, ls->target), light, paths.slot[i]);
+      return;
+    }
+    Ray ray = spawnRay(hit, ls->wi);
+    const std::optional<Real> t = scene.intersectPrimitive(ray, ls->primitive);
+    if (!t)
+      return; // the direction leaves the light's own surface: no light this way
+    ray.tmax = *t;
+    q.shadows.push(ray, light, paths.slot[i]);
+  };
+
+  // What a path does after its BSDF sample: the throughput, Russian roulette, and the next ray (or its end).
+  q.goesOn.assign(n, 0);
+  auto continuePath = [&](std::uint32_t i, const Color& weight, bool specular, Real pdf, const Vec3& direction) {
+    Color& beta = paths.beta[i];
+    beta *= weight;
+    if (beta == Color(0))
+      return; // nothing more can reach the eye along this path
+    paths.specular[i] = specular;
+    paths.bsdfPdf[i] = pdf;
+    paths.from[i] = q.hit[i].point;
+    // Russian roulette: go on with probability p, and divide by p so that the expectation is unchanged.
+    if (bounce >= kRouletteMinBounces) {
+      const Real p = rouletteSurvival(beta);
+      if (paths.sampler[i].next1D() >= p)
+        return;
+      beta /= p;
+    }
+    paths.ray.set(i, spawnRay(q.hit[i], direction));
+    q.goesOn[i] = 1;
+  };
+
+  // The diffuse paths: light samples one by one (each path's light and direction differ), then every bounce at
+  // once, one path per lane (diffuseBounces: lambertianSample and the frame, bit for bit).
+  const std::size_t nd = q.diffuse.size();
+  for (std::vector<Real>* v : {&q.nx, &q.ny, &q.nz, &q.dx, &q.dy, &q.dz, &q.u1, &q.u2, &q.wx, &q.wy, &q.wz,
+                               &q.cosTheta, &q.pdf})
+    v->resize(nd);
+  for (std::size_t k = 0; k < nd; ++k) {
+    const std::uint32_t i = q.diffuse[k];
+    const Hit& hit = q.hit[i];
+    const Vec3 d(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]);
+    const Frame frame = Frame::fromNormal(hit.normal);
+    sampleLight(i, frame, frame.toLocal(-d), material(i), true);
+    paths.sampler[i].next1D(); // the lobe choice, which a diffuse surface does not use (drawn as in chapter 8)
+    const Vec2 u = paths.sampler[i].next2D();
+    q.nx[k] = hit.normal.x, q.ny[k] = hit.normal.y, q.nz[k] = hit.normal.z;
+    q.dx[k] = d.x, q.dy[k] = d.y, q.dz[k] = d.z, q.u1[k] = u.x, q.u2[k] = u.y;
+  }
+  // The diffuse paths' light samples towards still spheres, all at once: the directions (sampleSphereCone), then,
+  // where the BSDF and the MIS weight let light through, the shadow rays' origins and lengths.
+  sphereLightDirections({sl.px, sl.py, sl.pz, sl.cx, sl.cy, sl.cz, sl.radius, sl.u1, sl.u2, sl.choice, sl.guide}, nl,
+                        {sl.wx, sl.wy, sl.wz, sl.pdf});
+  for (std::size_t k = 0; k < nl; ++k) {
+    const std::uint32_t i = sl.path[k];
+    const Hit& hit = q.hit[i];
+    const Material& m = material(i);
+    const Frame frame = Frame::fromNormal(hit.normal);
+    const Vec3 wo = frame.toLocal(-Vec3(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]));
+    const Vec3 wi = frame.toLocal(Vec3(sl.wx[k], sl.wy[k], sl.wz[k]));
+    const Color f = bsdfEval(m, wo, wi);
+    sl.useful[k] = f != Color(0);
+    const Real weight = misWeight(st.heuristic, sl.pdf[k], bsdfPdf(m, wo, wi));
+    sl.light[k] = paths.beta[i] * f * std::abs(wi.z) * sl.light[k] * (weight / sl.pdf[k]);
+    sl.ex[k] = hit.pointError.x, sl.ey[k] = hit.pointError.y, sl.ez[k] = hit.pointError.z;
+    sl.gx[k] = hit.geometricNormal.x, sl.gy[k] = hit.geometricNormal.y, sl.gz[k] = hit.geometricNormal.z;
+  }
+  shadowRaysToSpheres({sl.px, sl.py, sl.pz, sl.ex, sl.ey, sl.ez, sl.gx, sl.gy, sl.gz, sl.wx, sl.wy, sl.wz, sl.cx, sl.cy,
+                       sl.cz, sl.radius},
+                      nl, {sl.ox, sl.oy, sl.oz, sl.t});
+  for (std::size_t k = 0; k < nl; ++k)
+    if (sl.useful[k] && sl.t[k] < kInfinity) // (no root: the direction leaves the light's own surface)
+      q.shadows.push(Ray{Vec3(sl.ox[k], sl.oy[k], sl.oz[k]), Vec3(sl.wx[k], sl.wy[k], sl.wz[k]), 0, sl.t[k],
+                         q.hit[sl.path[k]].time},
+                     sl.light[k], paths.slot[sl.path[k]]);
+
+  diffuseBounces({q.nx, q.ny, q.nz, q.dx, q.dy, q.dz, q.u1, q.u2}, nd, {q.wx, q.wy, q.wz, q.cosTheta, q.pdf});
+  for (std::size_t k = 0; k < nd; ++k) {
+    const std::uint32_t i = q.diffuse[k];
+    if (!(q.pdf[k] > 0))
+      continue; // no sample: the path ends
+    const Color f = material(i).color * kInvPi; // lambertianSample's f
+    continuePath(i, f * std::abs(q.cosTheta[k]) / q.pdf[k], false, q.pdf[k], Vec3(q.wx[k], q.wy[k], q.wz[k]));
+  }
+
+  // The other materials, one path at a time, grouped by type.
+  for (const std::uint32_t i : q.other) {
+    const Material& m = material(i);
+    const Frame frame = Frame::fromNormal(q.hit[i].normal);
+    const Vec3 wo = frame.toLocal(-Vec3(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]));
+    if (m.type != MaterialType::Mirror && m.type != MaterialType::Glass)
+      sampleLight(i, frame, wo, m, false);
+    const Real uChoice = paths.sampler[i].next1D();
+    const Vec2 u = paths.sampler[i].next2D();
+    if (const std::optional<BsdfSample> bs = bsdfSample(m, wo, u, uChoice))
+      continuePath(i, bs->f * std::abs(bs->wi.z) / bs->pdf, bs->specular, bs->pdf, frame.toWorld(bs->wi));
+  }
+
+  // The paths that go on close up at the front, in order.
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (q.goesOn[i]) {
+      if (kept != i)
+        paths.move(i, kept);
+      ++kept;
+    }
+  paths.resize(kept);
+}
+/// [shade]
+
+/// [connect]
+// Stage 4, connect: every shadow ray of the round at once (any hit); the light of each that gets through is added
+// to its pixel sample.
+void connect(const Stages& st, Queues& q, std::span<Color> out)
+{
+  const ShadowRays& shadows = q.shadows;
+  const std::size_t n = shadows.ray.size();
+  q.blocked.assign(n, 0);
+  if (st.sphereKernels) {
+    anySpheres(st.spheres, shadows.ray, n, q.blocked);
+    countRays(n);
+  } else {
+    for (std::size_t i = 0; i < n; ++i)
+      q.blocked[i] = st.scene.occluded(shadows.ray.get(i, shadows.time[i]));
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (!q.blocked[i])
+      out[shadows.slot[i]] += shadows.light[i];
+}
+/// [connect]
+
+/// [wavefront]
+// The estimator: a wavefront of pixel samples through the stages, round after round, until no path is left.
+// Each path adds its light to out[i], its pixel sample's (which the render loop hands over at 0, and adds to the film
+// afterwards: stage 5, accumulate). Each thread has its
+// own queues `q`, kept from one wavefront to the next (their memory, not their contents).
+void renderWavefront(const Stages& st, Queues& q, const PrimaryRays& primary, std::span<const PixelSampleKey> keys,
+                     int maxDepth, std::span<Color> out)
+{
+  generate(primary, keys, q.paths);
+  for (int bounce = 0; q.paths.size() > 0; ++bounce) {
+    extend(st, q);
+    q.shadows.clear();
+    shade(st, bounce, maxDepth, q, out);
+    connect(st, q, out);
+  }
+}
+/// [wavefront]
+
+int main(int argc, char** argv)
+{
+  /// [chapter]
+  const ChapterInfo chapter{.binary = "step16_wavefront",
+                            .defaultScene = "smallpt.json",
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
+                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights |
+                                    kUsesMetal | kUsesLens | kUsesMotion,
+                            .pixelSampling = PixelSampling::Jittered,
+                            .defaultSpp = 64,
+                            .defaultMaxDepth = -1,
+                            .adaptiveSampling = true,
+                            .options = {{.name = "--heuristic",
+                                         .kind = OptionKind::Choice,
+                                         .help = "how MIS weights the two strategies",
+                                         .defaultValue = "power",
+                                         .choices = {"power", "balance"}},
+                                        kGuideOption,
+                                        {.name = "--wavefront",
+                                         .kind = OptionKind::Integer,
+                                         .help = "most paths in flight at once per thread (about 0.5 KB each)",
+                                         .defaultValue = "4096",
+                                         .min = 1,
+                                         .max = 1 << 24}}};
+  /// [chapter]
+  auto makeWavefront = [&chapter](const Scene& scene, const ChapterOptions& options) -> Wavefront {
+    const Heuristic heuristic = options.choice("--heuristic") == "power" ? Heuristic::Power : Heuristic::Balance;
+    // The stream kernels take a flat list of still spheres; a tree is walked one ray at a time.
+    const bool sphereKernels = !scene.usesAccelerator() && scene.triangles.empty() && !scene.hasMotion();
+    if (options.verbose()) {
+      const SimdTarget simd = currentSimdTarget();
+      std::cerr << chapter.binary << ": plan: wavefronts of up to " << options.integer("--wavefront")
+                << " paths a thread; nearest hits and shadow rays "
+                << (sphereKernels ? "through the stream kernels"
+                    : scene.usesAccelerator() ? "through the tree, one ray at a time"
+                                              : "through the scene, one ray at a time (triangles or motion)")
+                << "; the kernels run " << simd.lanes << " paths a vector (" << simd.name << ")\n";
+    }
+    const auto stages = std::make_shared<const Stages>(
+        Stages{scene, makeLightSampler(chapter.binary, scene, options), planScene(scene, chapter.uses).lightSampling(),
+               heuristic, sphereKernels, SphereList::from(scene.spheres)});
+    // Each thread of the render gets its own queues.
+    auto workers = [stages]() -> WavefrontFunction {
+      return [stages, queues = std::make_shared<Queues>()](const Scene&, const PrimaryRays& primary,
+                                                           std::span<const PixelSampleKey> keys, int maxDepth,
+                                                           std::span<Color> out) {
+        renderWavefront(*stages, *queues, primary, keys, maxDepth, out);
+      };
+    };
+    return Wavefront{workers, std::size_t(options.integer("--wavefront"))};
+  };
+  return runWavefrontChapter(argc, argv, chapter, makeWavefront);
+}

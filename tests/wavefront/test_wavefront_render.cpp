@@ -1,0 +1,86 @@
+// Chapter 16 as students run it: the wavefront renders chapter 8's estimator, so on every scene chapter 8 renders
+// it gives chapter 8's image - bit for bit in the same build, since each path draws the same random numbers and does
+// the same arithmetic (the stream kernels are bit-exact) - and the same image by the z-test at other seeds. Its
+// image does not depend on the wavefront's size; what it does not support it says.
+#include "../analytic/run_chapter.h"
+#include "../lights/compare_renders.h"
+
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+using namespace raylife;
+using namespace raylife::test;
+
+namespace {
+
+const std::string kScenes = RAYLIFE_SCENES;
+
+std::string readBytes(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+// Renders `binary` on `scene` with `args` into a PFM and returns its bytes.
+std::string renderBytes(const std::string& binary, const std::string& scene, const std::string& args,
+                        const std::string& tag)
+{
+  const std::string out = "/tmp/raylife_wavefront_" + std::to_string(::getpid()) + "_" + tag + ".pfm";
+  const std::string command = "'" + binary + "' '" + scene + "' --quiet -o '" + out + "' " + args;
+  REQUIRE(std::system(command.c_str()) == 0);
+  const std::string bytes = readBytes(out);
+  std::remove(out.c_str());
+  REQUIRE(bytes.size() > 100);
+  return bytes;
+}
+
+} // namespace
+
+TEST_CASE("wavefront: chapter 16 renders chapter 8's image bit for bit on the scenes chapter 8 renders")
+{
+  // Flat lists of spheres (the stream kernels), BVHs over spheres and over triangles (one ray at a time), point
+  // lights, glossy and metal lobes, glass, a lamp hidden in a recess (the light guide at work), the lens and motion.
+  for (const char* scene : {"cornell.json", "smallpt.json", "mis.json", "random_spheres.json", "cornell_original.json",
+                            "meshes.json", "spheres.json", "lamp_recess.json", "cornell_glossy.json",
+                            "distributed.json", "caustics.json"}) {
+    INFO(scene);
+    const std::string args = "--width 40 --height 30 --spp 6 --seed 3";
+    CHECK(renderBytes(RAYLIFE_STEP16, kScenes + "/" + scene, args, "16") ==
+          renderBytes(RAYLIFE_STEP08, kScenes + "/" + scene, args, "8"));
+  }
+}
+
+TEST_CASE("wavefront: the image is the same for any wavefront size, heuristic and adaptive sampling included")
+{
+  const std::string scene = kScenes + "/smallpt.json";
+  const std::string args = "--width 37 --height 23 --spp 5 --seed 11";
+  const std::string whole = renderBytes(RAYLIFE_STEP16, scene, args, "w4096");
+  CHECK(renderBytes(RAYLIFE_STEP16, scene, args + " --wavefront 1", "w1") == whole);
+  CHECK(renderBytes(RAYLIFE_STEP16, scene, args + " --wavefront 7", "w7") == whole);
+  CHECK(renderBytes(RAYLIFE_STEP16, scene, args + " --wavefront 100000", "wbig") == whole);
+  // The balance heuristic and adaptive sampling as chapter 8 has them.
+  const std::string cornell = kScenes + "/cornell.json";
+  CHECK(renderBytes(RAYLIFE_STEP16, cornell, args + " --heuristic balance", "b16") ==
+        renderBytes(RAYLIFE_STEP08, cornell, args + " --heuristic balance", "b8"));
+  const std::string adaptive = "--width 32 --height 24 --spp 64 --adaptive 0.2 --seed 2";
+  CHECK(renderBytes(RAYLIFE_STEP16, kScenes + "/adaptive.json", adaptive, "a16") ==
+        renderBytes(RAYLIFE_STEP08, kScenes + "/adaptive.json", adaptive, "a8"));
+}
+
+TEST_CASE("unbiased: chapter 16 and chapter 8 at other seeds render the same image by the z-test")
+{
+  for (const char* scene : {"smallpt.json", "cornell.json", "random_spheres.json"}) {
+    INFO(scene);
+    const ChapterRender c16 = run(RAYLIFE_STEP16, kScenes + "/" + scene, "--width 48 --height 36 --spp 128 --seed 61",
+                                  std::string("z16") + scene);
+    const ChapterRender c8 = run(RAYLIFE_STEP08, kScenes + "/" + scene, "--width 48 --height 36 --spp 128 --seed 81",
+                                 std::string("z8") + scene);
+    CHECK(compare(c16.mean, c16.variance, c8.mean, c8.variance, std::string(scene) + ": chapter 16 against 8")
+              .passed());
+  }
+}
