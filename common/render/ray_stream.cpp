@@ -365,6 +365,47 @@ void ShadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const Sh
 }
 /// [shadowRaysToSpheres]
 
+/// [diffuseLightSamples]
+void DiffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const DiffuseLightOutput& out)
+{
+  const D d;
+  const std::size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d), one = hn::Set(d, Real(1)), invPi = hn::Set(d, kInvPi);
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
+    const V nx = load(in.nx), ny = load(in.ny), nz = load(in.nz);
+    // cosθ of wo = −d and of wi in the shading frame (Frame::toLocal's z: the dot product with n).
+    const V woz = hn::Add(hn::Add(hn::Mul(hn::Neg(load(in.dx)), nx), hn::Mul(hn::Neg(load(in.dy)), ny)),
+                          hn::Mul(hn::Neg(load(in.dz)), nz));
+    const V wiz = hn::Add(hn::Add(hn::Mul(load(in.wx), nx), hn::Mul(load(in.wy), ny)), hn::Mul(load(in.wz), nz));
+    // Lambert: f = ρ/π and pdf |cosθi|/π where wo and wi are on one side, else 0.
+    const auto sameSide = hn::Gt(hn::Mul(woz, wiz), zero);
+    const V absCos = hn::Abs(wiz);
+    const V fR = hn::IfThenElseZero(sameSide, hn::Mul(load(in.rhoR), invPi));
+    const V fG = hn::IfThenElseZero(sameSide, hn::Mul(load(in.rhoG), invPi));
+    const V fB = hn::IfThenElseZero(sameSide, hn::Mul(load(in.rhoB), invPi));
+    const V bsdfPdf = hn::IfThenElseZero(sameSide, hn::Mul(absCos, invPi));
+    // The MIS weight of the light's pdf p against the BSDF's q: 1/(1 + (q/p)²) or 1/(1 + q/p) (light_sampling.h,
+    // whose cases p = 0 and p = ∞ do not arise here: a light sample's pdf is finite and > 0, and 1 where p = ∞).
+    const V pdf = load(in.pdf);
+    const V ratio = hn::Div(bsdfPdf, pdf);
+    V weight = hn::Div(one, hn::Add(one, in.power ? hn::Mul(ratio, ratio) : ratio));
+    weight = hn::IfThenElse(hn::IsInf(pdf), hn::IfThenElse(hn::IsInf(bsdfPdf), hn::Set(d, Real(0.5)), one), weight);
+    weight = hn::IfThenElseZero(hn::Gt(pdf, zero), weight);
+    const V scale = hn::Div(weight, pdf);
+    storeLanes(d, hn::Mul(hn::Mul(hn::Mul(hn::Mul(load(in.betaR), fR), absCos), load(in.leR)), scale),
+               out.lightR.data(), i, n);
+    storeLanes(d, hn::Mul(hn::Mul(hn::Mul(hn::Mul(load(in.betaG), fG), absCos), load(in.leG)), scale),
+               out.lightG.data(), i, n);
+    storeLanes(d, hn::Mul(hn::Mul(hn::Mul(hn::Mul(load(in.betaB), fB), absCos), load(in.leB)), scale),
+               out.lightB.data(), i, n);
+    const auto useful = hn::Or(hn::Or(hn::Ne(fR, zero), hn::Ne(fG, zero)), hn::Ne(fB, zero));
+    storeLanes(d, hn::IfThenElseZero(useful, one), out.useful.data(), i, n);
+  }
+}
+/// [diffuseLightSamples]
+
 Real LanesOf() { return Real(hn::Lanes(D())); }
 
 } // namespace HWY_NAMESPACE
@@ -380,6 +421,7 @@ HWY_EXPORT(DiffuseBounces);
 HWY_EXPORT(SphereHitPoints);
 HWY_EXPORT(SphereLightDirections);
 HWY_EXPORT(ShadowRaysToSpheres);
+HWY_EXPORT(DiffuseLightSamples);
 HWY_EXPORT(LanesOf);
 
 void RayStream::resize(std::size_t n)
@@ -440,6 +482,11 @@ void sphereHitPoints(const SphereHitInput& in, std::size_t count, const SphereHi
 void sphereLightDirections(const SphereLightInput& in, std::size_t count, const SphereLightOutput& out)
 {
   HWY_DYNAMIC_DISPATCH(SphereLightDirections)(in, count, out);
+}
+
+void diffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const DiffuseLightOutput& out)
+{
+  HWY_DYNAMIC_DISPATCH(DiffuseLightSamples)(in, count, out);
 }
 
 void shadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const ShadowSpawnOutput& out)

@@ -128,6 +128,29 @@ struct SphereLightOutput {
 /// the direction and pdf LightSampler::sampleChosen gives for a sphere.
 void sphereLightDirections(const SphereLightInput& in, std::size_t count, const SphereLightOutput& out);
 
+/// Light samples at diffuse surfaces, stored by coordinate: what the light brings if its shadow ray gets through.
+struct DiffuseLightInput {
+  std::span<const Real> nx, ny, nz;       ///< The unit shading normals.
+  std::span<const Real> dx, dy, dz;       ///< The unit directions of the rays that arrived (towards the surface).
+  std::span<const Real> wx, wy, wz;       ///< The unit directions towards the light.
+  std::span<const Real> pdf;              ///< The light sample's solid-angle pdf, > 0.
+  std::span<const Real> betaR, betaG, betaB; ///< The paths' throughputs.
+  std::span<const Real> rhoR, rhoG, rhoB;    ///< The surfaces' albedos.
+  std::span<const Real> leR, leG, leB;       ///< The radiance arriving from the light (its Le).
+  bool power = true;                      ///< The power heuristic (else the balance heuristic) weighs the sample.
+};
+
+/// The light each sample brings, stored by coordinate, and whether the BSDF lets any through.
+struct DiffuseLightOutput {
+  std::span<Real> lightR, lightG, lightB; ///< β f |cosθ| Le w / pdf.
+  std::span<Real> useful;                 ///< 1 where f ≠ 0 (the shadow ray is worth tracing), else 0.
+};
+
+/// For samples [0, count): chapter 8's light sample at a Lambertian surface, bit for bit: f = lambertianEval(ρ, wo,
+/// wi) and its pdf lambertianPdf in Frame::fromNormal(n) (wo = −d), the MIS weight powerHeuristic (or
+/// balanceHeuristic) of the light's pdf against the BSDF's, and β f |cosθ| Le (w / pdf).
+void diffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const DiffuseLightOutput& out);
+
 /// Shadow rays from surface points towards spheres, stored by coordinate: each point with its error bound and
 /// geometric normal, the direction, and the sphere the ray is aimed at.
 struct ShadowSpawnInput {

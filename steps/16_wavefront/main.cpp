@@ -99,19 +99,22 @@ struct SphereHitColumns {
   }
 };
 
-/// The light samples towards still spheres of a round by coordinate: shade's input to sphereLightDirections and
-/// shadowRaysToSpheres, and their output.
+/// The light samples towards still spheres of a round by coordinate: shade's input to sphereLightDirections,
+/// diffuseLightSamples and shadowRaysToSpheres, and their output.
 struct SphereLightColumns {
-  std::vector<std::uint32_t> path;  // which path each entry is
-  std::vector<Color> light;         // what the shadow ray brings if it gets through (once f and the weight are known)
-  std::vector<std::uint8_t> useful; // f > 0: the shadow ray is worth tracing
-  std::vector<Real> px, py, pz, cx, cy, cz, radius, u1, u2, choice, guide, wx, wy, wz, pdf, ex, ey, ez, gx, gy, gz,
-      ox, oy, oz, t;
+  std::vector<std::uint32_t> path; // which path each entry is
+  std::vector<Real> px, py, pz, cx, cy, cz, radius, u1, u2, choice, guide, wx, wy, wz, pdf; // the directions
+  std::vector<Real> nx, ny, nz, dx, dy, dz, betaR, betaG, betaB, rhoR, rhoG, rhoB, leR, leG, leB, lightR, lightG,
+      lightB, useful;                                                                     // the light they bring
+  std::vector<Real> ex, ey, ez, gx, gy, gz, ox, oy, oz, t;                                // the shadow rays
   void resize(std::size_t n)
   {
-    path.resize(n), light.resize(n), useful.resize(n);
-    for (std::vector<Real>* v : {&px, &py, &pz, &cx, &cy, &cz, &radius, &u1, &u2, &choice, &guide, &wx, &wy, &wz, &pdf,
-                                 &ex, &ey, &ez, &gx, &gy, &gz, &ox, &oy, &oz, &t})
+    path.resize(n);
+    for (std::vector<Real>* v : {&px,    &py,    &pz,    &cx,    &cy,    &cz,     &radius, &u1,     &u2,
+                                 &choice, &guide, &wx,   &wy,    &wz,    &pdf,    &nx,     &ny,     &nz,
+                                 &dx,    &dy,    &dz,    &betaR, &betaG, &betaB,  &rhoR,   &rhoG,   &rhoB,
+                                 &leR,   &leG,   &leB,   &lightR, &lightG, &lightB, &useful, &ex,   &ey,
+                                 &ez,    &gx,    &gy,    &gz,    &ox,    &oy,     &oz,     &t})
       v->resize(n);
   }
 };
@@ -272,7 +275,7 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   SphereLightColumns& sl = q.sphereLights;
   sl.resize(n);
   std::size_t nl = 0;
-  auto sampleLight = [&](std::uint32_t i, const Frame& frame, const Vec3& wo, const Material& m, bool sphereLanes) {
+  auto sampleLight = [&](std::uint32_t i, const Material& m, bool sphereLanes) {
     const Hit& hit = q.hit[i];
     const Real uLight = paths.sampler[i].next1D();
     const Vec2 uDirection = paths.sampler[i].next2D();
@@ -284,13 +287,22 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
     if (sphereLanes && chosen->light >= 0 && std::size_t(chosen->light) < scene.spheres.size() &&
         !scene.spheres[std::size_t(chosen->light)].moving()) {
       const Sphere& s = scene.spheres[std::size_t(chosen->light)];
+      const Color& Le = scene.materials[std::size_t(s.material)].emission;
       sl.path[nl] = i, sl.px[nl] = hit.point.x, sl.py[nl] = hit.point.y, sl.pz[nl] = hit.point.z;
       sl.cx[nl] = s.center.x, sl.cy[nl] = s.center.y, sl.cz[nl] = s.center.z, sl.radius[nl] = s.radius;
       sl.u1[nl] = chosen->u.x, sl.u2[nl] = chosen->u.y, sl.choice[nl] = chosen->choice, sl.guide[nl] = chosen->guide;
-      sl.light[nl] = scene.materials[std::size_t(s.material)].emission; // Li, until f and the weight join it
+      sl.nx[nl] = hit.normal.x, sl.ny[nl] = hit.normal.y, sl.nz[nl] = hit.normal.z;
+      sl.dx[nl] = paths.ray.dx[i], sl.dy[nl] = paths.ray.dy[i], sl.dz[nl] = paths.ray.dz[i];
+      sl.betaR[nl] = paths.beta[i].r, sl.betaG[nl] = paths.beta[i].g, sl.betaB[nl] = paths.beta[i].b;
+      sl.rhoR[nl] = m.color.r, sl.rhoG[nl] = m.color.g, sl.rhoB[nl] = m.color.b;
+      sl.leR[nl] = Le.r, sl.leG[nl] = Le.g, sl.leB[nl] = Le.b;
+      sl.ex[nl] = hit.pointError.x, sl.ey[nl] = hit.pointError.y, sl.ez[nl] = hit.pointError.z;
+      sl.gx[nl] = hit.geometricNormal.x, sl.gy[nl] = hit.geometricNormal.y, sl.gz[nl] = hit.geometricNormal.z;
       ++nl;
       return;
     }
+    const Frame frame = Frame::fromNormal(hit.normal);
+    const Vec3 wo = frame.toLocal(-Vec3(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]));
     const std::optional<LightSample> ls = st.lights.sampleChosen(*chosen, hit.point, hit.time);
     if (!ls)
       return;
@@ -343,40 +355,27 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   for (std::size_t k = 0; k < nd; ++k) {
     const std::uint32_t i = q.diffuse[k];
     const Hit& hit = q.hit[i];
-    const Vec3 d(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]);
-    const Frame frame = Frame::fromNormal(hit.normal);
-    sampleLight(i, frame, frame.toLocal(-d), material(i), true);
+    sampleLight(i, material(i), true);
     paths.sampler[i].next1D(); // the lobe choice, which a diffuse surface does not use (drawn as in chapter 8)
     const Vec2 u = paths.sampler[i].next2D();
     q.nx[k] = hit.normal.x, q.ny[k] = hit.normal.y, q.nz[k] = hit.normal.z;
-    q.dx[k] = d.x, q.dy[k] = d.y, q.dz[k] = d.z, q.u1[k] = u.x, q.u2[k] = u.y;
+    q.dx[k] = paths.ray.dx[i], q.dy[k] = paths.ray.dy[i], q.dz[k] = paths.ray.dz[i], q.u1[k] = u.x, q.u2[k] = u.y;
   }
-  // The diffuse paths' light samples towards still spheres, all at once: the directions (sampleSphereCone), then,
-  // where the BSDF and the MIS weight let light through, the shadow rays' origins and lengths.
+  // The diffuse paths' light samples towards still spheres, all at once: the directions (sampleSphereCone), the
+  // light each would bring (Lambert's f, the MIS weight), and the shadow rays' origins and lengths.
   sphereLightDirections({sl.px, sl.py, sl.pz, sl.cx, sl.cy, sl.cz, sl.radius, sl.u1, sl.u2, sl.choice, sl.guide}, nl,
                         {sl.wx, sl.wy, sl.wz, sl.pdf});
-  for (std::size_t k = 0; k < nl; ++k) {
-    const std::uint32_t i = sl.path[k];
-    const Hit& hit = q.hit[i];
-    const Material& m = material(i);
-    const Frame frame = Frame::fromNormal(hit.normal);
-    const Vec3 wo = frame.toLocal(-Vec3(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]));
-    const Vec3 wi = frame.toLocal(Vec3(sl.wx[k], sl.wy[k], sl.wz[k]));
-    const Color f = bsdfEval(m, wo, wi);
-    sl.useful[k] = f != Color(0);
-    const Real weight = misWeight(st.heuristic, sl.pdf[k], bsdfPdf(m, wo, wi));
-    sl.light[k] = paths.beta[i] * f * std::abs(wi.z) * sl.light[k] * (weight / sl.pdf[k]);
-    sl.ex[k] = hit.pointError.x, sl.ey[k] = hit.pointError.y, sl.ez[k] = hit.pointError.z;
-    sl.gx[k] = hit.geometricNormal.x, sl.gy[k] = hit.geometricNormal.y, sl.gz[k] = hit.geometricNormal.z;
-  }
+  diffuseLightSamples({sl.nx, sl.ny, sl.nz, sl.dx, sl.dy, sl.dz, sl.wx, sl.wy, sl.wz, sl.pdf, sl.betaR, sl.betaG,
+                       sl.betaB, sl.rhoR, sl.rhoG, sl.rhoB, sl.leR, sl.leG, sl.leB, st.heuristic == Heuristic::Power},
+                      nl, {sl.lightR, sl.lightG, sl.lightB, sl.useful});
   shadowRaysToSpheres({sl.px, sl.py, sl.pz, sl.ex, sl.ey, sl.ez, sl.gx, sl.gy, sl.gz, sl.wx, sl.wy, sl.wz, sl.cx, sl.cy,
                        sl.cz, sl.radius},
                       nl, {sl.ox, sl.oy, sl.oz, sl.t});
   for (std::size_t k = 0; k < nl; ++k)
-    if (sl.useful[k] && sl.t[k] < kInfinity) // (no root: the direction leaves the light's own surface)
+    if (sl.useful[k] != 0 && sl.t[k] < kInfinity) // (no root: the direction leaves the light's own surface)
       q.shadows.push(Ray{Vec3(sl.ox[k], sl.oy[k], sl.oz[k]), Vec3(sl.wx[k], sl.wy[k], sl.wz[k]), 0, sl.t[k],
                          q.hit[sl.path[k]].time},
-                     sl.light[k], paths.slot[sl.path[k]]);
+                     Color(sl.lightR[k], sl.lightG[k], sl.lightB[k]), paths.slot[sl.path[k]]);
 
   diffuseBounces({q.nx, q.ny, q.nz, q.dx, q.dy, q.dz, q.u1, q.u2}, nd, {q.wx, q.wy, q.wz, q.cosTheta, q.pdf});
   for (std::size_t k = 0; k < nd; ++k) {
@@ -390,10 +389,10 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   // The other materials, one path at a time, grouped by type.
   for (const std::uint32_t i : q.other) {
     const Material& m = material(i);
+    if (m.type != MaterialType::Mirror && m.type != MaterialType::Glass)
+      sampleLight(i, m, false);
     const Frame frame = Frame::fromNormal(q.hit[i].normal);
     const Vec3 wo = frame.toLocal(-Vec3(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]));
-    if (m.type != MaterialType::Mirror && m.type != MaterialType::Glass)
-      sampleLight(i, frame, wo, m, false);
     const Real uChoice = paths.sampler[i].next1D();
     const Vec2 u = paths.sampler[i].next2D();
     if (const std::optional<BsdfSample> bs = bsdfSample(m, wo, u, uChoice))

@@ -7,6 +7,7 @@
 #include "core/frame.h"
 #include "core/rng.h"
 #include "render/ray_stream.h"
+#include "shading/material.h"
 #include "scene/light_sampling.h"
 #include "shading/bsdf.h"
 
@@ -300,5 +301,50 @@ TEST_CASE("stream kernels: shadowRaysToSpheres equals offsetRayOrigin and inters
     CHECK(met > count / 10);
     CHECK(met < count);
     CHECK(wrong == 0);
+  });
+}
+
+TEST_CASE("stream kernels: diffuseLightSamples equals Lambert's f, its pdf and the MIS weight, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    for (const bool power : {true, false}) {
+      const std::size_t count = 20003;
+      Pcg32 rng(7, power ? 11 : 12);
+      auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+      std::vector<Real> nx(count), ny(count), nz(count), dx(count), dy(count), dz(count), wx(count), wy(count),
+          wz(count), pdf(count), bR(count), bG(count), bB(count), rR(count), rG(count), rB(count), lR(count),
+          lG(count), lB(count);
+      for (std::size_t i = 0; i < count; ++i) {
+        const Vec3 n = randomDirection(rng), d = randomDirection(rng), w = randomDirection(rng);
+        nx[i] = n.x, ny[i] = n.y, nz[i] = n.z, dx[i] = d.x, dy[i] = d.y, dz[i] = d.z, wx[i] = w.x, wy[i] = w.y;
+        wz[i] = w.z;
+        // Light pdfs from tiny to huge (a small far lamp), one infinite; albedos with a black channel.
+        pdf[i] = i % 101 == 0 ? kInfinity : std::exp(40 * u() - 20);
+        bR[i] = u(), bG[i] = 2 * u(), bB[i] = u() / 3, rR[i] = u(), rG[i] = i % 5 == 0 ? 0 : u(), rB[i] = u();
+        lR[i] = 12, lG[i] = 12 * u(), lB[i] = 0.5;
+      }
+      std::vector<Real> outR(count), outG(count), outB(count), useful(count);
+      diffuseLightSamples({nx, ny, nz, dx, dy, dz, wx, wy, wz, pdf, bR, bG, bB, rR, rG, rB, lR, lG, lB, power}, count,
+                          {outR, outG, outB, useful});
+      std::size_t wrong = 0, lit = 0;
+      for (std::size_t i = 0; i < count; ++i) {
+        const Frame frame = Frame::fromNormal(Vec3(nx[i], ny[i], nz[i]));
+        const Vec3 wo = frame.toLocal(-Vec3(dx[i], dy[i], dz[i])), wi = frame.toLocal(Vec3(wx[i], wy[i], wz[i]));
+        Material m;
+        m.color = Color(rR[i], rG[i], rB[i]);
+        const Color f = bsdfEval(m, wo, wi);
+        const Real q = bsdfPdf(m, wo, wi);
+        const Real weight = power ? powerHeuristic(pdf[i], q) : balanceHeuristic(pdf[i], q);
+        const Color L = Color(bR[i], bG[i], bB[i]) * f * std::abs(wi.z) * Color(lR[i], lG[i], lB[i]) *
+                        (weight / pdf[i]);
+        const bool isLit = f != Color(0);
+        lit += isLit;
+        wrong += (useful[i] != 0) != isLit ||
+                 (isLit && (!sameBits(outR[i], L.r) || !sameBits(outG[i], L.g) || !sameBits(outB[i], L.b)));
+      }
+      INFO((power ? "power" : "balance") << " heuristic, " << lit << " of " << count << " lit");
+      CHECK(lit > count / 4);
+      CHECK(wrong == 0);
+    }
   });
 }
