@@ -21,7 +21,8 @@ namespace {
 
 const std::string kMpirun = MPIEXEC;
 const std::string kScenes = RAYLIFE_SCENES;
-const std::string kStep04 = STEP04, kStep06 = STEP06, kStep07 = STEP07, kStep09 = STEP09, kStep13 = STEP13;
+const std::string kStep04 = STEP04, kStep06 = STEP06, kStep07 = STEP07, kStep09 = STEP09, kStep13 = STEP13,
+                  kStep16 = STEP16;
 // Open MPI refuses root unless told (CI runs as root).
 const std::vector<std::string> kEnv = {"OMPI_ALLOW_RUN_AS_ROOT=1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1"};
 
@@ -57,14 +58,14 @@ std::vector<std::string> with(const std::string& binary, std::vector<std::string
 
 } // namespace
 
-TEST_CASE("mpirun -np 2 and 3 give the one-process bytes for chapters 4 - 6 - 7 - 9 and 13 (splats)")
+TEST_CASE("mpirun -np 2 and 3 give the one-process bytes for chapters 4 - 6 - 7 - 9 - 13 (splats) and 16 (wavefronts)")
 {
   struct Case {
     std::string binary, scene, spp;
   };
   for (const Case& c : {Case{kStep04, "spheres.json", "3"}, Case{kStep06, "cornell.json", "23"},
                         Case{kStep07, "cornell.json", "16"}, Case{kStep09, "cornell.json", "5"},
-                        Case{kStep13, "caustics.json", "5"}}) {
+                        Case{kStep13, "caustics.json", "5"}, Case{kStep16, "smallpt.json", "7"}}) {
     INFO(c.binary);
     const TempDir dir;
     const auto args = small(c.scene, {"--spp", c.spp});
