@@ -33,9 +33,13 @@ namespace raylife {
 /// Rays stored by coordinate: ray i is (ox[i], oy[i], oz[i]) + t·(dx[i], dy[i], dz[i]) for t in [0, tmax[i]).
 /// Every array has size() entries; the directions are unit and tmin is 0 (raylife's spawned rays; camera rays).
 struct RayStream {
-  std::vector<Real> ox, oy, oz; ///< Origins, world space.
-  std::vector<Real> dx, dy, dz; ///< Unit directions.
-  std::vector<Real> tmax;       ///< The end of each ray's interval, > 0 (+∞ for a ray that goes on forever).
+  std::vector<Real> ox; ///< Origins, world space: x.
+  std::vector<Real> oy; ///< Origins, world space: y.
+  std::vector<Real> oz; ///< Origins, world space: z.
+  std::vector<Real> dx; ///< Unit directions: x.
+  std::vector<Real> dy; ///< Unit directions: y.
+  std::vector<Real> dz; ///< Unit directions: z.
+  std::vector<Real> tmax; ///< The end of each ray's interval, > 0 (+∞ for a ray that goes on forever).
 
   /// Rays in the stream.
   std::size_t size() const { return ox.size(); }
@@ -52,8 +56,10 @@ struct RayStream {
 
 /// A flat list of still spheres stored by coordinate, for the stream kernels.
 struct SphereList {
-  std::vector<Real> cx, cy, cz; ///< Centres, world space.
-  std::vector<Real> radius;     ///< Radii, > 0.
+  std::vector<Real> cx; ///< Centres, world space: x.
+  std::vector<Real> cy; ///< Centres, world space: y.
+  std::vector<Real> cz; ///< Centres, world space: z.
+  std::vector<Real> radius; ///< Radii, > 0.
   /// The spheres of `spheres`, in order (their centres at time 0).
   static SphereList from(std::span<const Sphere> spheres);
   /// Spheres in the list.
@@ -61,30 +67,39 @@ struct SphereList {
 };
 
 /// For rays [0, count) of `rays`: the nearest sphere of `spheres` in [0, tmax), exactly as the loop
-/// `for each sphere, in order: t = intersectSphere(o, d, c, r, 0, nearest)` finds it (the lowest index on a tie):
-/// t[i] its distance and sphere[i] its index, or t[i] = rays.tmax[i] and sphere[i] = −1 when none is hit.
-/// @param t,sphere at least `count` entries each.
+/// `for each sphere, in order: t = intersectSphere(o, d, c, r, 0, nearest)` finds it (the lowest index on a tie).
+/// @param spheres the list. @param rays the rays (at least `count`). @param count how many rays to trace.
+/// @param t out: t[i] the hit's distance, or rays.tmax[i] when none is hit; at least `count` entries.
+/// @param sphere out: sphere[i] the sphere's index in the list, or −1 when none is hit; at least `count` entries.
 void nearestSpheres(const SphereList& spheres, const RayStream& rays, std::size_t count, std::span<Real> t,
                     std::span<std::int32_t> sphere);
 
-/// For rays [0, count): occluded[i] = 1 when any sphere of `spheres` is hit in [0, tmax) (exactly when
-/// nearestSpheres finds one), else 0. @param occluded at least `count` entries.
+/// For rays [0, count): whether any sphere of `spheres` is hit in [0, tmax), exactly when nearestSpheres finds one.
+/// @param spheres the list. @param rays the rays (at least `count`). @param count how many rays to trace.
+/// @param occluded out: occluded[i] 1 when ray i is blocked, else 0; at least `count` entries.
 void anySpheres(const SphereList& spheres, const RayStream& rays, std::size_t count,
                 std::span<std::uint8_t> occluded);
 
 /// Diffuse hits stored by coordinate: the shading normal and the incoming ray's direction at each, and the two
 /// uniform numbers of each hit's bounce.
 struct DiffuseBounceInput {
-  std::span<const Real> nx, ny, nz; ///< Unit shading normals.
-  std::span<const Real> dx, dy, dz; ///< Unit directions of the rays that arrived (towards the surface).
-  std::span<const Real> u1, u2;     ///< Uniform numbers in [0, 1): the bounce's (u.x, u.y).
+  std::span<const Real> nx; ///< Unit shading normals: x.
+  std::span<const Real> ny; ///< Unit shading normals: y.
+  std::span<const Real> nz; ///< Unit shading normals: z.
+  std::span<const Real> dx; ///< Unit directions of the rays that arrived (towards the surface): x.
+  std::span<const Real> dy; ///< Unit directions of the rays that arrived (towards the surface): y.
+  std::span<const Real> dz; ///< Unit directions of the rays that arrived (towards the surface): z.
+  std::span<const Real> u1; ///< The bounce's first uniform number (u.x), in [0, 1).
+  std::span<const Real> u2; ///< The bounce's second uniform number (u.y), in [0, 1).
 };
 
 /// Where each diffuse bounce goes: the world direction and the two numbers its weight needs.
 struct DiffuseBounceOutput {
-  std::span<Real> wx, wy, wz; ///< The sampled direction in world space, unit.
-  std::span<Real> cosTheta;   ///< Its cosine with the normal in the shading frame (wi.z; negative below).
-  std::span<Real> pdf;        ///< Its solid-angle pdf, |cosθ|/π; 0 where the bounce failed (see below).
+  std::span<Real> wx; ///< The sampled direction in world space, unit: x.
+  std::span<Real> wy; ///< The sampled direction in world space, unit: y.
+  std::span<Real> wz; ///< The sampled direction in world space, unit: z.
+  std::span<Real> cosTheta; ///< Its cosine with the normal in the shading frame (wi.z; negative below).
+  std::span<Real> pdf; ///< Its solid-angle pdf, |cosθ|/π; 0 where the bounce failed (see below).
 };
 
 /// For hits [0, count): lambertianSample(ρ, wo, (u1, u2)) in the frame Frame::fromNormal(n), wo = toLocal(−d), its
@@ -94,16 +109,30 @@ void diffuseBounces(const DiffuseBounceInput& in, std::size_t count, const Diffu
 
 /// Rays that hit spheres, stored by coordinate: each ray, its hit's t and the sphere.
 struct SphereHitInput {
-  std::span<const Real> ox, oy, oz, dx, dy, dz; ///< The rays (unit directions).
-  std::span<const Real> t;                      ///< Where each hits its sphere.
-  std::span<const Real> cx, cy, cz, radius;     ///< Each ray's sphere (its centre at the ray's time).
+  std::span<const Real> ox; ///< The rays' origins: x.
+  std::span<const Real> oy; ///< The rays' origins: y.
+  std::span<const Real> oz; ///< The rays' origins: z.
+  std::span<const Real> dx; ///< The rays' unit directions: x.
+  std::span<const Real> dy; ///< The rays' unit directions: y.
+  std::span<const Real> dz; ///< The rays' unit directions: z.
+  std::span<const Real> t; ///< Where each hits its sphere.
+  std::span<const Real> cx; ///< The centre of each ray's sphere: x.
+  std::span<const Real> cy; ///< The centre of each ray's sphere: y.
+  std::span<const Real> cz; ///< The centre of each ray's sphere: z.
+  std::span<const Real> radius; ///< The radius of each ray's sphere.
 };
 
 /// The surface points of those hits, stored by coordinate.
 struct SphereHitOutput {
-  std::span<Real> px, py, pz; ///< The point, re-projected onto the sphere.
-  std::span<Real> nx, ny, nz; ///< The outward unit normal.
-  std::span<Real> ex, ey, ez; ///< The bound on the point's error, per coordinate.
+  std::span<Real> px; ///< The point, re-projected onto the sphere: x.
+  std::span<Real> py; ///< The point, re-projected onto the sphere: y.
+  std::span<Real> pz; ///< The point, re-projected onto the sphere: z.
+  std::span<Real> nx; ///< The outward unit normal: x.
+  std::span<Real> ny; ///< The outward unit normal: y.
+  std::span<Real> nz; ///< The outward unit normal: z.
+  std::span<Real> ex; ///< The bound on the point's error, per coordinate: x.
+  std::span<Real> ey; ///< The bound on the point's error, per coordinate: y.
+  std::span<Real> ez; ///< The bound on the point's error, per coordinate: z.
 };
 
 /// For hits [0, count): sphereSurfacePoint(o, d, t, c, r), bit for bit: the hit record Scene::intersect makes on a
@@ -112,16 +141,25 @@ void sphereHitPoints(const SphereHitInput& in, std::size_t count, const SphereHi
 
 /// Shading points and the still spherical light each chose (LightSampler::choose), stored by coordinate.
 struct SphereLightInput {
-  std::span<const Real> px, py, pz;         ///< The shading points, world space.
-  std::span<const Real> cx, cy, cz, radius; ///< Each point's light: a still sphere.
-  std::span<const Real> u1, u2;             ///< LightChoice::u, in [0, 1)².
-  std::span<const Real> choice, guide;      ///< LightChoice::choice and LightChoice::guide.
+  std::span<const Real> px; ///< The shading points, world space: x.
+  std::span<const Real> py; ///< The shading points, world space: y.
+  std::span<const Real> pz; ///< The shading points, world space: z.
+  std::span<const Real> cx; ///< The centre of each point's light, a still sphere: x.
+  std::span<const Real> cy; ///< The centre of each point's light, a still sphere: y.
+  std::span<const Real> cz; ///< The centre of each point's light, a still sphere: z.
+  std::span<const Real> radius; ///< The radius of each point's light.
+  std::span<const Real> u1; ///< LightChoice::u.x, in [0, 1).
+  std::span<const Real> u2; ///< LightChoice::u.y, in [0, 1).
+  std::span<const Real> choice; ///< LightChoice::choice, in (0, 1].
+  std::span<const Real> guide; ///< LightChoice::guide, > 0.
 };
 
 /// The light samples' directions and pdfs, stored by coordinate.
 struct SphereLightOutput {
-  std::span<Real> wx, wy, wz; ///< The direction towards the light, unit, world space.
-  std::span<Real> pdf;        ///< Its solid-angle pdf, light choice and guide included.
+  std::span<Real> wx; ///< The direction towards the light, unit, world space: x.
+  std::span<Real> wy; ///< The direction towards the light, unit, world space: y.
+  std::span<Real> wz; ///< The direction towards the light, unit, world space: z.
+  std::span<Real> pdf; ///< Its solid-angle pdf, light choice and guide included.
 };
 
 /// For points [0, count): sampleSphereCone(p, c, r, u) and choice · sphereConePdf(p, c, r) · guide, bit for bit:
@@ -130,20 +168,34 @@ void sphereLightDirections(const SphereLightInput& in, std::size_t count, const 
 
 /// Light samples at diffuse surfaces, stored by coordinate: what the light brings if its shadow ray gets through.
 struct DiffuseLightInput {
-  std::span<const Real> nx, ny, nz;       ///< The unit shading normals.
-  std::span<const Real> dx, dy, dz;       ///< The unit directions of the rays that arrived (towards the surface).
-  std::span<const Real> wx, wy, wz;       ///< The unit directions towards the light.
-  std::span<const Real> pdf;              ///< The light sample's solid-angle pdf, > 0.
-  std::span<const Real> betaR, betaG, betaB; ///< The paths' throughputs.
-  std::span<const Real> rhoR, rhoG, rhoB;    ///< The surfaces' albedos.
-  std::span<const Real> leR, leG, leB;       ///< The radiance arriving from the light (its Le).
-  bool power = true;                      ///< The power heuristic (else the balance heuristic) weighs the sample.
+  std::span<const Real> nx; ///< The unit shading normals: x.
+  std::span<const Real> ny; ///< The unit shading normals: y.
+  std::span<const Real> nz; ///< The unit shading normals: z.
+  std::span<const Real> dx; ///< The unit directions of the rays that arrived (towards the surface): x.
+  std::span<const Real> dy; ///< The unit directions of the rays that arrived (towards the surface): y.
+  std::span<const Real> dz; ///< The unit directions of the rays that arrived (towards the surface): z.
+  std::span<const Real> wx; ///< The unit directions towards the light: x.
+  std::span<const Real> wy; ///< The unit directions towards the light: y.
+  std::span<const Real> wz; ///< The unit directions towards the light: z.
+  std::span<const Real> pdf; ///< The light sample's solid-angle pdf, > 0.
+  std::span<const Real> betaR; ///< The paths' throughputs: red.
+  std::span<const Real> betaG; ///< The paths' throughputs: green.
+  std::span<const Real> betaB; ///< The paths' throughputs: blue.
+  std::span<const Real> rhoR; ///< The surfaces' albedos: red.
+  std::span<const Real> rhoG; ///< The surfaces' albedos: green.
+  std::span<const Real> rhoB; ///< The surfaces' albedos: blue.
+  std::span<const Real> leR; ///< The radiance arriving from the light (its Le): red.
+  std::span<const Real> leG; ///< The radiance arriving from the light (its Le): green.
+  std::span<const Real> leB; ///< The radiance arriving from the light (its Le): blue.
+  bool power = true; ///< The power heuristic (else the balance heuristic) weighs the sample.
 };
 
 /// The light each sample brings, stored by coordinate, and whether the BSDF lets any through.
 struct DiffuseLightOutput {
-  std::span<Real> lightR, lightG, lightB; ///< β f |cosθ| Le w / pdf.
-  std::span<Real> useful;                 ///< 1 where f ≠ 0 (the shadow ray is worth tracing), else 0.
+  std::span<Real> lightR; ///< β f |cosθ| Le w / pdf: red.
+  std::span<Real> lightG; ///< β f |cosθ| Le w / pdf: green.
+  std::span<Real> lightB; ///< β f |cosθ| Le w / pdf: blue.
+  std::span<Real> useful; ///< 1 where f ≠ 0 (the shadow ray is worth tracing), else 0.
 };
 
 /// For samples [0, count): chapter 8's light sample at a Lambertian surface, bit for bit: f = lambertianEval(ρ, wo,
@@ -154,17 +206,30 @@ void diffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const D
 /// Shadow rays from surface points towards spheres, stored by coordinate: each point with its error bound and
 /// geometric normal, the direction, and the sphere the ray is aimed at.
 struct ShadowSpawnInput {
-  std::span<const Real> px, py, pz;         ///< The surface points.
-  std::span<const Real> ex, ey, ez;         ///< Their error bounds.
-  std::span<const Real> gx, gy, gz;         ///< Their geometric normals.
-  std::span<const Real> wx, wy, wz;         ///< The unit directions of the rays.
-  std::span<const Real> cx, cy, cz, radius; ///< The spheres they are aimed at.
+  std::span<const Real> px; ///< The surface points: x.
+  std::span<const Real> py; ///< The surface points: y.
+  std::span<const Real> pz; ///< The surface points: z.
+  std::span<const Real> ex; ///< Their error bounds: x.
+  std::span<const Real> ey; ///< Their error bounds: y.
+  std::span<const Real> ez; ///< Their error bounds: z.
+  std::span<const Real> gx; ///< Their geometric normals: x.
+  std::span<const Real> gy; ///< Their geometric normals: y.
+  std::span<const Real> gz; ///< Their geometric normals: z.
+  std::span<const Real> wx; ///< The unit directions of the rays: x.
+  std::span<const Real> wy; ///< The unit directions of the rays: y.
+  std::span<const Real> wz; ///< The unit directions of the rays: z.
+  std::span<const Real> cx; ///< The centres of the spheres they are aimed at: x.
+  std::span<const Real> cy; ///< The centres of the spheres they are aimed at: y.
+  std::span<const Real> cz; ///< The centres of the spheres they are aimed at: z.
+  std::span<const Real> radius; ///< The radii of the spheres they are aimed at.
 };
 
 /// The shadow rays' origins and lengths, stored by coordinate.
 struct ShadowSpawnOutput {
-  std::span<Real> ox, oy, oz; ///< The origin, off the surface (offsetRayOrigin).
-  std::span<Real> t;          ///< Where the ray first meets its sphere; +∞ where it does not.
+  std::span<Real> ox; ///< The origin, off the surface (offsetRayOrigin): x.
+  std::span<Real> oy; ///< The origin, off the surface (offsetRayOrigin): y.
+  std::span<Real> oz; ///< The origin, off the surface (offsetRayOrigin): z.
+  std::span<Real> t; ///< Where the ray first meets its sphere; +∞ where it does not.
 };
 
 /// For rays [0, count): the origin spawnRay(hit, w) gives (offsetRayOrigin(p, e, g, w)) and the first root of the

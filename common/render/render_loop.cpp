@@ -196,6 +196,9 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
   std::vector<unsigned char> active(std::size_t(width) * std::size_t(height), 1);
   std::size_t activeCount = active.size();
   std::uint64_t samplesTaken = 0;
+  // A wavefront estimator per thread, made by the thread that uses it in the first batch and kept for the others
+  // (with its queues: the memory is allocated once per render, not once per batch).
+  std::vector<WavefrontFunction> wavefronts(workers ? std::size_t(threads) : 0);
   int nextCheckpoint = kAdaptiveMinSamples;
   while (done < target) {
     if (settings.adaptive && done == nextCheckpoint) {
@@ -315,7 +318,9 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
 #pragma omp parallel num_threads(threads) reduction(+ : rays, bad, pixelSamples)
       {
         const std::uint64_t raysBefore = rayCount();
-        const WavefrontFunction wavefront = (*workers)();
+        WavefrontFunction& wavefront = wavefronts[std::size_t(omp_get_thread_num())];
+        if (!wavefront)
+          wavefront = (*workers)();
         std::vector<PixelSampleKey> keys;
         std::vector<Color> radiance;
 #pragma omp for schedule(dynamic, 1)
