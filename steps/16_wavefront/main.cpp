@@ -41,6 +41,14 @@ Real misWeight(Heuristic heuristic, Real p, Real q)
   return heuristic == Heuristic::Power ? powerHeuristic(p, q) : balanceHeuristic(p, q);
 }
 
+// Makes `v` hold at least n entries. The queues only grow: what they hold past the paths in flight is left as it is,
+// so a wavefront neither frees nor clears memory that the next one uses again.
+template <class T> void atLeast(std::vector<T>& v, std::size_t n)
+{
+  if (v.size() < n)
+    v.resize(n);
+}
+
 /// [paths]
 // Every path in flight, stored field by field (structure of arrays): path i is entry i of every array. A stage
 // reads a field of many paths in a row, which is one load per SIMD register and whole cache lines of use.
@@ -53,14 +61,18 @@ struct Paths {
   std::vector<Real> bsdfPdf;            // the pdf with which the last vertex's BSDF chose the ray
   std::vector<Vec3> from;               // that vertex
   std::vector<std::uint32_t> slot;      // where its radiance goes: its pixel sample's index
+  std::size_t count = 0;                // paths in flight: entries [0, count) of each array
 
-  std::size_t size() const { return time.size(); }
+  std::size_t size() const { return count; }
   void resize(std::size_t n)
   {
-    ray.resize(n), time.resize(n), beta.resize(n), sampler.resize(n, Sampler(0, 0, 0, 0)), specular.resize(n),
-        bsdfPdf.resize(n), from.resize(n), slot.resize(n);
+    if (n > time.size()) {
+      ray.resize(n), time.resize(n), beta.resize(n), sampler.resize(n, Sampler(0, 0, 0, 0)), specular.resize(n),
+          bsdfPdf.resize(n), from.resize(n), slot.resize(n);
+    }
+    count = n;
   }
-  // Path `from` moves to place `to` (to ≤ from): how the paths that go on close up behind those that ended.
+  // Path `src` moves to place `dst` (dst ≤ src): how the paths that go on close up behind those that ended.
   void move(std::size_t src, std::size_t dst)
   {
     ray.set(dst, ray.get(src));
@@ -92,10 +104,10 @@ struct SphereHitColumns {
   std::vector<Real> ox, oy, oz, dx, dy, dz, t, cx, cy, cz, radius, px, py, pz, nx, ny, nz, ex, ey, ez;
   void resize(std::size_t n)
   {
-    path.resize(n);
+    atLeast(path, n);
     for (std::vector<Real>* v : {&ox, &oy, &oz, &dx, &dy, &dz, &t, &cx, &cy, &cz, &radius, &px, &py, &pz, &nx, &ny,
                                  &nz, &ex, &ey, &ez})
-      v->resize(n);
+      atLeast(*v, n);
   }
 };
 
@@ -109,13 +121,13 @@ struct SphereLightColumns {
   std::vector<Real> ex, ey, ez, gx, gy, gz, ox, oy, oz, t;                                // the shadow rays
   void resize(std::size_t n)
   {
-    path.resize(n);
+    atLeast(path, n);
     for (std::vector<Real>* v : {&px,    &py,    &pz,    &cx,    &cy,    &cz,     &radius, &u1,     &u2,
                                  &choice, &guide, &wx,   &wy,    &wz,    &pdf,    &nx,     &ny,     &nz,
                                  &dx,    &dy,    &dz,    &betaR, &betaG, &betaB,  &rhoR,   &rhoG,   &rhoB,
                                  &leR,   &leG,   &leB,   &lightR, &lightG, &lightB, &useful, &ex,   &ey,
                                  &ez,    &gx,    &gy,    &gz,    &ox,    &oy,     &oz,     &t})
-      v->resize(n);
+      atLeast(*v, n);
   }
 };
 
@@ -131,7 +143,7 @@ struct Queues {
   SphereHitColumns sphereHits;      // and the hit records' points, normals and error bounds
   SphereLightColumns sphereLights;  // shade: light samples towards still spheres
   // shade: the paths grouped by material, and which go on.
-  std::vector<std::uint32_t> diffuse, other;
+  std::vector<std::uint32_t> diffuse, other, grouped;
   std::vector<std::uint8_t> goesOn;
   // shade's diffuse bounces, by coordinate (the stream kernel's input and output).
   std::vector<Real> nx, ny, nz, dx, dy, dz, u1, u2, wx, wy, wz, cosTheta, pdf;
@@ -180,9 +192,8 @@ void extend(const Stages& st, Queues& q)
   const Scene& scene = st.scene;
   const Paths& paths = q.paths;
   const std::size_t n = paths.size();
-  q.hit.resize(n);
+  atLeast(q.hit, n), atLeast(q.t, n), atLeast(q.primitive, n);
   q.found.assign(n, 0);
-  q.t.resize(n), q.primitive.resize(n);
   if (st.sphereKernels) {
     nearestSpheres(st.spheres, paths.ray, n, q.t, q.primitive);
   } else if (scene.usesAccelerator()) {
@@ -267,8 +278,13 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
       continue;
     (m.type == MaterialType::Diffuse ? q.diffuse : q.other).push_back(i);
   }
-  std::stable_sort(q.other.begin(), q.other.end(),
-                   [&](std::uint32_t a, std::uint32_t b) { return material(a).type < material(b).type; });
+  // (Grouped by type: one pass over them per type, which keeps each type's paths in order.)
+  q.grouped.clear();
+  for (const MaterialType type : {MaterialType::Mirror, MaterialType::Glass, MaterialType::Glossy, MaterialType::Metal})
+    for (const std::uint32_t i : q.other)
+      if (material(i).type == type)
+        q.grouped.push_back(i);
+  std::swap(q.other, q.grouped);
 
   // Light sampling (as chapters 7 and 8): a light, a direction towards it, and its shadow ray into connect's
   // queue. A still sphere's direction and shadow ray are left to the stream kernels (below) when `sphereLanes`.
@@ -351,7 +367,7 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   const std::size_t nd = q.diffuse.size();
   for (std::vector<Real>* v : {&q.nx, &q.ny, &q.nz, &q.dx, &q.dy, &q.dz, &q.u1, &q.u2, &q.wx, &q.wy, &q.wz,
                                &q.cosTheta, &q.pdf})
-    v->resize(nd);
+    atLeast(*v, nd);
   for (std::size_t k = 0; k < nd; ++k) {
     const std::uint32_t i = q.diffuse[k];
     const Hit& hit = q.hit[i];
