@@ -69,7 +69,11 @@ void checkChapterValue(const ChapterOption& o, const std::string& text)
   auto inRange = [&](double v, const std::string& shown) {
     if (v < o.min || v > o.max) {
       std::ostringstream range;
-      range << o.name << " must lie in [" << o.min << ", " << o.max << "], got " << shown;
+      // (Whole numbers' bounds as whole numbers: a stream writes 16777216 as 1.67772e+07.)
+      if (o.kind == OptionKind::Integer || o.kind == OptionKind::IntegerList)
+        range << o.name << " must lie in [" << (long long)(o.min) << ", " << (long long)(o.max) << "], got " << shown;
+      else
+        range << o.name << " must lie in [" << o.min << ", " << o.max << "], got " << shown;
       throw UsageError(range.str());
     }
   };

@@ -486,7 +486,7 @@ int main(int argc, char** argv)
                                         kGuideOption,
                                         {.name = "--wavefront",
                                          .kind = OptionKind::Integer,
-                                         .help = "most paths in flight at once per thread (about 0.5 KB each)",
+                                         .help = "most paths in flight at once per thread (about 1 KB of queues each)",
                                          .defaultValue = "4096",
                                          .min = 1,
                                          .max = 1 << 24}}};

@@ -731,6 +731,22 @@ TEST_CASE("a chapter's own option is parsed - checked and documented by the shar
   CHECK(help.err.empty());
 }
 
+TEST_CASE("chapter 16's --wavefront takes a whole number of paths in its range - said in whole numbers")
+{
+  const TempDir dir;
+  writeFile(dir.path() / "scene.json", kScene);
+  const std::string usageHint = "usage: step16_wavefront [SCENE.json] [options]; see --help\n";
+  for (const auto& [value, message] :
+       {std::pair<std::string, std::string>{"0", "--wavefront must lie in [1, 16777216], got 0"},
+        {"16777217", "--wavefront must lie in [1, 16777216], got 16777217"},
+        {"1e3", "--wavefront expects a whole number, got '1e3'"}}) {
+    const Outcome o = run(STEP16, {"scene.json", "--wavefront", value, "-o", "x.png"}, dir.path());
+    CHECK(o.status == 2);
+    CHECK(o.err == "step16_wavefront: " + message + "\n" + usageHint);
+  }
+  CHECK(entries(dir.path()) == std::vector<std::string>{"scene.json"});
+}
+
 TEST_CASE("an output's extension may be in upper case (issue 26)")
 {
   const TempDir dir;
