@@ -6,7 +6,13 @@ find_package(assimp 5 REQUIRED CONFIG)
 find_package(OpenMP REQUIRED COMPONENTS CXX)
 find_package(Threads REQUIRED)
 # OpenEXR (libopenexr-dev, 3.1 in Debian 12): -o x.exr, and every tool that reads images reads EXR too.
+# Debian 12's libimath-dev declares a PyImath target whose library ships in another package (python3-imath), and
+# Imath's package file, which OpenEXR's loads, reports the missing file in ten status lines on every configure.
+# raylife uses Imath's C++ library only: status messages are held back while OpenEXR is found (warnings and errors
+# still show, and `cmake --log-level=STATUS` or more shows everything again).
+set(CMAKE_MESSAGE_LOG_LEVEL NOTICE)
 find_package(OpenEXR 3 REQUIRED CONFIG)
+unset(CMAKE_MESSAGE_LOG_LEVEL)
 # Google Highway (libhwy-dev, 1.0.3 in Debian 12): the SIMD of chapter 16's stream kernels, compiled for several
 # instruction sets in one binary and chosen at run time (render/ray_stream.h), so the build stays generic x86-64.
 find_package(hwy 1 REQUIRED CONFIG)
