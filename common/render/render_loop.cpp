@@ -162,11 +162,13 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
     throw std::invalid_argument("adaptive sampling cannot stop a pixel that other pixels' samples splat into");
   if (settings.adaptive && (share.range || share.ranks > 1))
     throw std::invalid_argument("adaptive sampling needs every sample of every pixel in one process");
+  if (settings.beside && (splatTrace || workers || settings.adaptive))
+    throw std::invalid_argument("an image beside the render needs every pixel to take every sample, one at a time");
   if (share.range && (!settings.spp || share.range->first < 0 || share.range->count < 0 ||
                       std::int64_t(share.range->first) + share.range->count > *settings.spp))
     throw std::invalid_argument("a range of samples needs a fixed spp that holds it");
   const int width = camera.width(), height = camera.height();
-  RenderResult result{Film(width, height)};
+  RenderResult result{Film(settings.beside ? 2 * width : width, height)};
   const std::vector<Tile> allTiles = makeTiles(width, height);
   std::vector<Tile> tiles = allTiles; // the work of a batch (adaptive sampling narrows it to the active pixels)
   const int threads = settings.threads > 0 ? settings.threads : omp_get_max_threads();
@@ -383,6 +385,16 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
                   L = Color(0);
                 }
                 result.film.add(x, y, L);
+                if (settings.beside) {
+                  // The image beside: the same sample with the second estimator, from the same random numbers.
+                  Sampler again(settings.seed, x, y, std::uint64_t(s));
+                  Color B = (*settings.beside)(scene, primary.ray(x, y, s, again, sequence), again, settings.maxDepth);
+                  if (!Film::holds(B)) {
+                    ++bad;
+                    B = Color(0);
+                  }
+                  result.film.add(x + width, y, B);
+                }
               }
               pixelSamples += std::uint64_t(s1 - s0);
             }
@@ -408,7 +420,7 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
     result.spp = done;
   }
   result.meanSpp = double(samplesTaken) / double(active.size());
-  result.cameraRays = samplesTaken;
+  result.cameraRays = settings.beside ? 2 * samplesTaken : samplesTaken;
   result.samples = share.ranges(done);
   result.seconds = elapsed();
   if (settings.progress) {

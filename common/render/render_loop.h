@@ -141,6 +141,10 @@ struct RenderSettings {
   /// Each sample also draws a time in [0, 1) for its ray (Ray::time): set for a chapter that honours motion, when
   /// the scene has some (Scene::hasMotion). False: time 0, and no number drawn.
   bool motion = false;
+  /// A second estimator whose image goes to the right of the first (ChapterInfo::besideTrace): every pixel sample
+  /// is also taken with it, from its own Sampler(seed, x, y, s), into pixel (x + width, y) of a film twice as wide,
+  /// so that one time budget holds both images. Not with a splatting estimator or adaptive sampling. May be null.
+  const TraceFunction* beside = nullptr;
 };
 
 /// What a render produced and what it cost.
@@ -153,9 +157,12 @@ struct RenderResult {
   std::uint64_t badSamples = 0; ///< Samples that were NaN, infinite or negative: replaced by 0 and counted.
   bool interrupted = false;     ///< Stopped early through RenderSettings::stop.
   /// Stopped in the middle of a batch of samples: the share of its tiles that took it, in [0, 1) (their pixels
-  /// hold more samples than spp); 0 when every batch was whole.
+  /// hold the whole batch, which may be many samples, more than spp: Film::samples says how many); 0 when every
+  /// batch was whole.
   double partialPass = 0;
-  double meanSpp = 0;           ///< Mean samples per pixel (equal to spp unless sampling was adaptive).
+  /// Mean samples per pixel: equal to spp unless sampling was adaptive (then at most spp) or a batch was cut (then
+  /// above spp, for the tiles that took the cut batch).
+  double meanSpp = 0;
   std::vector<SampleRange> samples{}; ///< The sample indices taken (RenderSettings::share), coalesced.
 };
 

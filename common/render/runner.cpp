@@ -331,6 +331,7 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
     // Render, with Ctrl-C and SIGTERM turned into "stop at the next tile" (until the images are written).
     const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
+    settings.beside = chapter.besideTrace ? &chapter.besideTrace : nullptr; // its image in the same time budget
     RenderResult result = [&] {
       if (makeSplatTrace)
         return ranks.render(scene, camera, settings, (*makeSplatTrace)(scene, options.chapter));
@@ -340,20 +341,6 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
       }
       return ranks.render(scene, camera, settings, (*makeTrace)(scene, options.chapter));
     }();
-    std::optional<RenderResult> beside; // the chapter's second image, with the samples the first one got
-    if (chapter.besideTrace) {
-      RenderSettings same = settings;
-      if (!same.share.range) // (a share of --spp keeps its range; otherwise the samples the first image got)
-        same.spp = result.spp;
-      same.seconds.reset();
-      beside = ranks.render(scene, camera, same, chapter.besideTrace);
-      result.rays += beside->rays;
-      result.cameraRays += beside->cameraRays;
-      result.seconds += beside->seconds;
-      result.badSamples += beside->badSamples;
-      result.interrupted = result.interrupted || beside->interrupted;
-      result.partialPass = std::max(result.partialPass, beside->partialPass);
-    }
     // A pass cut short leaves some pixels with more samples than the others: fine for an image, but a partial film
     // must hold whole passes (its header lists the sample indices every pixel holds).
     const bool cut = result.interrupted && (result.partialPass > 0 || result.spp == 0);
@@ -369,7 +356,9 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
     if (!ranks.root())
       return ranks.finish(result.interrupted ? 130 : 0);
     std::vector<std::pair<std::string, std::vector<unsigned char>>> files;
-    const Film film = beside ? sideBySide(result.film, beside->film) : std::move(result.film);
+    const Film film = std::move(result.film);
+    // The most samples a pixel holds: spp, unless a cut batch (which may be many samples) gave some tiles more.
+    const std::uint32_t maxSpp = film.counts().empty() ? 0 : *std::max_element(film.counts().begin(), film.counts().end());
     Image mean = film.mean();
     if (chapter.annotate)
       chapter.annotate(mean);
@@ -393,7 +382,7 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
            << ", \"bad_samples\": " << result.badSamples << ", \"threads\": "
            << (settings.threads > 0 ? settings.threads : omp_get_max_threads())
            << ", \"interrupted\": " << (result.interrupted ? "true" : "false")
-           << ", \"mean_spp\": " << result.meanSpp << ", \"adaptive\": " << (settings.adaptive ? "true" : "false")
+           << ", \"mean_spp\": " << result.meanSpp << ", \"max_spp\": " << maxSpp << ", \"adaptive\": " << (settings.adaptive ? "true" : "false")
            << ", \"ranks\": " << ranks.size() << ", \"camera_rays\": " << result.cameraRays
            << "}\n";
       const std::string text = json.str();
@@ -430,9 +419,9 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
         std::cerr << " (adaptive: at most " << result.spp << ", mean " << result.meanSpp << " spp)";
       if (result.badSamples)
         std::cerr << ", " << result.badSamples << " bad samples set to 0";
-      if (result.interrupted && cut)
-        std::cerr << " (interrupted after " << result.spp << " spp and " << int(result.partialPass * 100)
-                  << "% of the next pass)";
+      if (result.interrupted && cut && int(maxSpp) > result.spp)
+        std::cerr << " (interrupted after " << result.spp << " spp, and " << int(maxSpp) - result.spp
+                  << " more in " << int(result.partialPass * 100) << "% of the tiles)";
       else if (result.interrupted)
         std::cerr << " (interrupted after " << result.spp << " spp)";
       std::cerr << " -> " << outputs[0];
