@@ -316,6 +316,8 @@ namespace {
 // What an option's value looks like in --help.
 std::string metavar(const ChapterOption& o)
 {
+  if (!o.metavar.empty() && o.kind != OptionKind::Flag)
+    return o.metavar;
   switch (o.kind) {
   case OptionKind::Flag:
     return "";

@@ -30,6 +30,8 @@ struct ChapterOption {
   std::string name = {};              ///< "--" and a word, e.g. "--heuristic"; no shared option's name.
   OptionKind kind = OptionKind::Flag; ///< What value it takes.
   std::string help = {};              ///< One line for --help: what it does.
+  /// The value's name in --help and in `help` ("D"); empty: N, X, N,N,... or the choices, by its kind.
+  std::string metavar = {};
   /// The value when the option is not given, spelt as on the command line (it must pass the same checks);
   /// ignored for a flag, which is off unless given. Empty: none (the chapter asks ChapterOptions::given first;
   /// reading the value of an option with none and not given throws std::logic_error).

@@ -42,7 +42,7 @@ std::string describeReads(unsigned uses)
   return out;
 }
 
-std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven)
+std::string describeIgnored(const Scene& scene, unsigned uses)
 {
   std::vector<std::string> parts;
   auto plural = [](std::size_t n, const std::string& one, const std::string& many) {
@@ -89,8 +89,6 @@ std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGive
         std::count_if(scene.spheres.begin(), scene.spheres.end(), [](const Sphere& s) { return s.moving(); }));
     parts.push_back("the velocity of " + plural(moving, "sphere", "spheres") + " (drawn at time 0)");
   }
-  if (maxDepthGiven && !(uses & kUsesMaxDepth))
-    parts.push_back("--max-depth (nothing here recurses)");
   std::string out;
   for (std::size_t i = 0; i < parts.size(); ++i)
     out += (i == 0 ? "" : (i + 1 == parts.size() ? " and " : ", ")) + parts[i];
@@ -275,9 +273,12 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
       checkWritable(options.variancePath);
     if (!options.statsPath.empty() && ranks.root())
       checkWritable(options.statsPath);
-    if (const std::string ignored = describeIgnored(scene, chapter.uses, options.maxDepth.has_value());
-        !ignored.empty() && !options.quiet)
+    if (const std::string ignored = describeIgnored(scene, chapter.uses); !ignored.empty() && !options.quiet)
       std::cerr << name << ": ignores in " << scene.fileName << ": " << ignored << "\n";
+    if (options.maxDepth && !(chapter.uses & kUsesMaxDepth) && !options.quiet) // (the command line's, not the scene's)
+      std::cerr << name << ": ignores --max-depth (nothing here recurses)\n";
+    if (const std::string dark = describeDarkness(planScene(scene, chapter.uses)); !dark.empty() && !options.quiet)
+      std::cerr << name << ": " << scene.fileName << " " << dark << "\n";
 
     RenderSettings settings;
     settings.spp = options.spp;

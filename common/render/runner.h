@@ -44,7 +44,7 @@ struct ChapterInfo {
 std::string describeReads(unsigned uses);
 
 /// What in `scene` a chapter that reads only `uses` ignores, as one phrase ("2 point lights, ambient"), or "".
-std::string describeIgnored(const Scene& scene, unsigned uses, bool maxDepthGiven);
+std::string describeIgnored(const Scene& scene, unsigned uses);
 
 /// The scenes folder, where default scenes live: $RAYLIFE_SCENES, else the `scenes/` of the tree the program is
 /// in (render/locate.h); "" when there is none.

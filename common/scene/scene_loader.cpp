@@ -766,6 +766,8 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
 {
   r.object(j, path);
   const bool fromFile = j.contains("file");
+  if (fromFile && j.contains("vertices"))
+    r.fail(path, "a mesh has \"file\" and inline \"vertices\": give one or the other");
   if (fromFile)
     r.onlyKeys(j, path, {"file", "material", "transform", "smooth"});
   else

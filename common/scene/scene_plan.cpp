@@ -20,7 +20,33 @@ ScenePlan planScene(const Scene& scene, unsigned uses)
     plan.glass = plan.glass || ((uses & kUsesGlass) && m.type == MaterialType::Glass);
   }
   plan.backgroundBlack = !(uses & kUsesBackground) || scene.background == Color(0);
+  plan.ambient = (uses & kUsesAmbient) && scene.ambient != Color(0);
+  if (!(uses & kUsesPointLights))
+    plan.ignoredPointLights = scene.lights.size();
+  if (!(uses & kUsesEmission))
+    for (std::size_t i = 0; i < scene.primitiveCount(); ++i)
+      plan.ignoredEmitters += scene.materials[std::size_t(scene.materialOf(int(i)))].isEmissive();
   return plan;
+}
+
+bool litByScene(unsigned uses)
+{
+  // Shading by point lights or light sampling, or a path tracer (one that follows rays and reads emission).
+  return (uses & kUsesSpheres) && ((uses & (kUsesPointLights | kShadowRays | kSamplesLights)) ||
+                                   ((uses & kUsesEmission) && (uses & kUsesMaxDepth)));
+}
+
+std::string describeDarkness(const ScenePlan& plan)
+{
+  if (!litByScene(plan.uses) || plan.pointLights + plan.emitters > 0 || plan.ambient || !plan.backgroundBlack)
+    return "";
+  std::string ignored;
+  if (plan.ignoredEmitters > 0)
+    ignored = "emission";
+  if (plan.ignoredPointLights > 0)
+    ignored += std::string(ignored.empty() ? "" : " and ") + "point lights";
+  return "has no light this chapter uses" + (ignored.empty() ? std::string() : " (it ignores " + ignored + ")") +
+         ": the image will be black";
 }
 
 std::vector<std::string> describePlan(const ScenePlan& plan)

@@ -46,6 +46,10 @@ struct ScenePlan {
                                 ///< reads emission).
   bool glass = false;           ///< Some sphere or triangle is glass and the chapter treats glass as glass.
   bool backgroundBlack = true;  ///< The background is black, or the chapter does not read it.
+  bool ambient = false;         ///< The ambient term is not black and the chapter reads it.
+  /// Lights the scene holds that the chapter ignores (it does not read them): point lights, emitters.
+  std::size_t ignoredPointLights = 0;
+  std::size_t ignoredEmitters = 0; ///< See ignoredPointLights.
   unsigned uses = 0;            ///< The chapter's Feature flags: describePlan speaks only of what it does.
   /// Light sampling has something to sample: at least one emitter or point light. Without it chapters 7 and 8
   /// do BSDF sampling only (a light sampler with no light returns nothing, so this is exact).
@@ -54,11 +58,21 @@ struct ScenePlan {
   bool shadowRays() const { return pointLights > 0; }
 };
 
+/// True for a chapter whose image is lit by the scene's lights (point lights, emitters, the ambient term, the
+/// background as an environment), which a scene without any it reads leaves black: chapters 3 to 9, 11 and 13; not
+/// the ones that show geometry (1, 2), light by a headlight (10) or by occlusion (12).
+bool litByScene(unsigned uses);
+
 /// The plan for `scene` as a chapter reading `uses` (Feature flags) renders it.
 ScenePlan planScene(const Scene& scene, unsigned uses);
 
 /// The plan as lines of text, one per decision the chapter (ScenePlan::uses) makes, in its words, e.g.
 /// "plan: 5 spheres -> flat list: each ray tests every one (more than 9 go in a BVH, chapter 9)".
 std::vector<std::string> describePlan(const ScenePlan& plan);
+
+/// "", or, when the chapter (litByScene) finds no light it uses in the scene, no ambient term and a black
+/// background, so that its image will be black: what to tell the user, e.g. "has no light this chapter uses (it
+/// ignores emission): the image will be black".
+std::string describeDarkness(const ScenePlan& plan);
 
 } // namespace raylife

@@ -48,6 +48,7 @@ int main(int argc, char** argv)
                             .options = {{.name = "--ao-distance",
                                          .kind = OptionKind::Number,
                                          .help = "only what lies within D scene units occludes (inf: all)",
+                                         .metavar = "D",
                                          .defaultValue = "inf",
                                          .min = 1e-9, // (a distance > 0)
                                          .max = std::numeric_limits<double>::infinity()}}};

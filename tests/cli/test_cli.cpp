@@ -651,6 +651,45 @@ TEST_CASE("with --time T a chapter with an image beside its render stops at abou
   }
 }
 
+TEST_CASE("a chapter that finds no light it uses in the scene says its image will be black (issue 43)")
+{
+  const TempDir dir;
+  const std::string cornell = (fs::path(RAYLIFE_TEST_SCENE).parent_path() / "cornell.json").string();
+  auto err = [&](const std::string& binary, const std::string& scene) {
+    const Outcome o = run(binary, {scene, "--width", "32", "-o", "out.png"}, dir.path());
+    INFO(o.err);
+    REQUIRE(o.status == 0);
+    return o.err;
+  };
+  // Chapter 4 reads point lights and the ambient term; the Cornell box has neither, only an emitter.
+  CHECK(err(kStep04, cornell).find("step04_shadows: " + cornell + " has no light this chapter uses (it ignores "
+                                   "emission): the image will be black\n") != std::string::npos);
+  // A scene without any light, ambient term or background: no parenthesis.
+  writeFile(dir.path() / "dark.json", R"({
+  "camera": { "eye": [0, 1, 6], "focal": [0, 1, 0], "up": [0, 1, 0], "vfov": 40, "width": 64, "height": 48 },
+  "materials": { "red": { "type": "diffuse", "color": [0.8, 0.2, 0.2] } },
+  "spheres": [ { "center": [0, 1, 0], "radius": 1, "material": "red" } ]
+})");
+  CHECK(err(kStep04, "dark.json").find("step04_shadows: dark.json has no light this chapter uses: the image will be "
+                                       "black\n") != std::string::npos);
+  // Chapter 8 samples the box's lamp; chapter 4 lights the default scene; chapter 1 shows only directions.
+  CHECK(err(kStep08, cornell).find("will be black") == std::string::npos);
+  CHECK(err(kStep04, RAYLIFE_TEST_SCENE).find("will be black") == std::string::npos);
+  CHECK(err(STEP01, "dark.json").find("will be black") == std::string::npos);
+}
+
+TEST_CASE("a chapter that does not recurse says apart from the scene that it ignores --max-depth (issue 43)")
+{
+  const TempDir dir;
+  writeFile(dir.path() / "scene.json", kScene);
+  const Outcome o = run(kStep04, {"scene.json", "--max-depth", "3", "-o", "out.png"}, dir.path());
+  INFO(o.err);
+  REQUIRE(o.status == 0);
+  CHECK(o.err.find("step04_shadows: ignores --max-depth (nothing here recurses)\n") != std::string::npos);
+  CHECK(o.err.find("ignores in scene.json: the reflection and refraction of 1 material (shaded as diffuse)\n") !=
+        std::string::npos);
+}
+
 TEST_CASE("a .film of an interrupted pass is refused: a partial film holds whole passes only")
 {
   const TempDir dir, capture;

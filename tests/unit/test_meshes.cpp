@@ -207,7 +207,7 @@ TEST_CASE("bad mesh entries and bad mesh files are refused with one message nami
       {"a missing file", "", "", R"({ "file": "nowhere.obj", "material": "white" })", "cannot open the mesh file"},
       {"a folder named like a mesh", "", "", R"({ "file": "folder.obj", "material": "white" })", "is a folder"},
       {"both a file and vertices", "", "", R"({ "file": "a.obj", "vertices": [], "material": "white" })",
-       "unknown key 'vertices'"},
+       "/meshes/0: a mesh has \"file\" and inline \"vertices\": give one or the other"},
       {"neither a file nor vertices", "", "", R"({ "material": "white" })", "a mesh needs \"file\""},
       {"an inline index out of range", "", "",
        R"({ "material": "white", "vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 3]] })",

@@ -21,10 +21,10 @@ namespace {
 void usage()
 {
   std::cerr << "usage: raylife_compare IMAGE REFERENCE [--tolerance T] [--max-share S] [--diff FILE] [--gain G]\n"
-               "  IMAGE, REFERENCE  .png or .pfm files of the same size (PNG is decoded from sRGB to linear)\n"
+               "  IMAGE, REFERENCE  .png, .pfm or .exr files of the same size (PNG is decoded from sRGB to linear)\n"
                "  --tolerance T     per-channel absolute tolerance (default 0.002)\n"
                "  --max-share S     share of pixels allowed over the tolerance, in [0, 1] (default 0)\n"
-               "  --diff FILE       write |IMAGE - REFERENCE| x gain as .png or .pfm\n"
+               "  --diff FILE       write |IMAGE - REFERENCE| x gain as .png, .pfm or .exr\n"
                "  --gain G          scale of the difference image (default 10)\n"
                "exit status: 0 within tolerance, 1 not, 2 bad usage (a missing or unreadable image, images of two\n"
                "sizes, a share outside [0, 1], gain 0, a --diff that cannot be written)\n"

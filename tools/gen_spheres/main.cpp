@@ -104,7 +104,9 @@ int main(int argc, char** argv)
   const bool diffuse = argc == 4 && std::string(argv[3]) == "--diffuse";
   if ((argc != 3 && !diffuse) || !parseCount(argv[1], 1, 10000000, n) || !parseCount(argv[2], 0, 1LL << 62, seed)) {
     std::fprintf(stderr, "usage: gen_spheres N SEED [--diffuse] > scene.json   (1 <= N <= 10000000 spheres, "
-                         "SEED >= 0)\n");
+                         "SEED >= 0)\n"
+                         "       gen_spheres clutter BASE.json N SEED X0 Y0 Z0 X1 Y1 Z1 > scene.json   (BASE.json "
+                         "with N small spheres added in the box)\n");
     return 2;
   }
   Random random{std::uint64_t(seed)};
