@@ -189,7 +189,7 @@ TEST_CASE("check: bad usage and unreadable images exit with 2")
          dir.path());
   writeFile(dir.path() / "t.json", "{\"chapter\": \"step07_light_sampling\", \"spp\": 64}");
   fs::copy_file(dir.path() / "s.pfm", dir.path() / "t.pfm");
-  writeFile(dir.path() / "u.json", "{\"spp\": ");
+  writeFile(dir.path() / "u.json", "{\"chapter\": \"step06_path_tracer\", \"spp\": \"many\"}");
   fs::copy_file(dir.path() / "s.pfm", dir.path() / "u.pfm");
   const std::vector<std::vector<std::string>> cases = {
       {},                                // no chapter
@@ -206,7 +206,7 @@ TEST_CASE("check: bad usage and unreadable images exit with 2")
       {"4", "small.pfm", "small.pfm"},   // two images
       {"4", "small.pfm", "--colour"},    // an unknown option
       {"6", "t.pfm"},                    // a --stats file of another chapter
-      {"6", "u.pfm"},                    // a broken --stats file
+      {"6", "u.pfm"},                    // a --stats file without a count
       {"4", "small.pfm", "--golden", "nowhere"}, // no golden there
   };
   for (const auto& args : cases) {
@@ -215,6 +215,38 @@ TEST_CASE("check: bad usage and unreadable images exit with 2")
     CHECK(o.err.find("raylife_check: ") != std::string::npos);
     CHECK(o.out.empty());
   }
+}
+
+TEST_CASE("check: a scene beside its render is not read as a --stats file (issue 43)")
+{
+  // step06_path_tracer b.json -o b.pfm, then raylife_check 6 b.pfm: b.json is the scene, not the render's figures.
+  TempDir dir;
+  fs::copy_file(kScenes + "/cornell_large_lamp.json", dir.path() / "b.json");
+  render(STEP06, {"b.json", "--width", "64", "--height", "48", "--quiet", "-o", "b.pfm"}, dir.path());
+  const Outcome o = check({"6", "b.pfm"}, dir.path());
+  CHECK(o.status == 0);
+  CHECK(o.out.find("b.json beside the image is no --stats file") != std::string::npos);
+  // And a file that is no JSON at all is passed over in the same way.
+  writeFile(dir.path() / "b.json", "{\"spp\": ");
+  CHECK(check({"6", "b.pfm"}, dir.path()).status == 0);
+}
+
+TEST_CASE("check: a deterministic chapter's default render passes as a PFM as it does as a PNG (issue 43)")
+{
+  TempDir dir;
+  render(STEP04, {"--quiet", "-o", "a.pfm", "-o", "a.png"}, dir.path());
+  for (const char* image : {"a.pfm", "a.png"}) {
+    const Outcome o = check({"4", image}, dir.path());
+    CHECK(o.status == 0);
+    CHECK(o.out.find("PASS") != std::string::npos);
+  }
+  // The same render with a sphere's colour changed fails in both.
+  const std::string scene = editedScene("spheres.json", dir.path(), [](json& j) {
+    j["materials"].begin().value()["color"] = {0.1, 0.9, 0.1};
+  });
+  render(STEP04, {scene, "--quiet", "-o", "w.pfm", "-o", "w.png"}, dir.path());
+  for (const char* image : {"w.pfm", "w.png"})
+    CHECK(check({"4", image}, dir.path()).status == 1);
 }
 
 TEST_CASE("check: without an image it prints the command that renders what it grades")

@@ -72,11 +72,40 @@ fs::path goldenDirectory(const std::string& given)
 
 std::string sizeText(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
 
-// The command that renders the image raylife_check grades (one line), in the working folder.
-std::string renderCommand(const GradedChapter& c)
+// The chapter's program: beside raylife_check, or (for the raylife_check of the exercises' build, which builds no
+// chapter) in build/bin of the same tree.
+fs::path chapterProgram(const GradedChapter& c)
 {
-  std::string cmd = shown(programDirectory() / c.binary) + " --width " + std::to_string(c.width) + " --height " +
-                    std::to_string(c.height);
+  const fs::path beside = programDirectory() / c.binary;
+  std::error_code ec;
+  if (fs::exists(beside, ec))
+    return beside;
+  const fs::path root = projectRoot();
+  if (!root.empty() && fs::exists(root / "build" / "bin" / c.binary, ec))
+    return root / "build" / "bin" / c.binary;
+  return beside;
+}
+
+// The chapter's exercise (cmake --preset exercises): beside raylife_check, or in build-exercises/bin of the same
+// tree; empty when there is no exercise build.
+fs::path exerciseProgram(const GradedChapter& c)
+{
+  const std::string name = std::string(c.binary) + "_exercise";
+  std::error_code ec;
+  if (fs::exists(programDirectory() / name, ec))
+    return programDirectory() / name;
+  const fs::path root = projectRoot();
+  if (!root.empty() && fs::exists(root / "build-exercises" / "bin" / name, ec))
+    return root / "build-exercises" / "bin" / name;
+  return {};
+}
+
+// The command that renders the image raylife_check grades (one line), in the working folder, with `program` (by
+// default the chapter's).
+std::string renderCommand(const GradedChapter& c, const fs::path& program = {})
+{
+  std::string cmd = shown(program.empty() ? chapterProgram(c) : program) + " --width " + std::to_string(c.width) +
+                    " --height " + std::to_string(c.height);
   const std::string name = c.binary;
   if (c.grading == Grading::Statistical)
     cmd += " --spp " + std::to_string(c.spp) + " -o " + name + ".pfm --stats " + name + ".json";
@@ -93,7 +122,8 @@ std::string explanation(const GradedChapter& c)
     return "then: raylife_check " + std::to_string(c.number) + " " + name + ".pfm\n" + name +
            " is deterministic: every channel must be within 1e-4 relative of the golden (a PFM or EXR at " +
            sizeText(c.width, c.height) + "), or within " + std::to_string(kPngCodes) +
-           " code of it (a PNG at that size, or the chapter's default render, out/" + name + ".png)";
+           " code of it (a PNG at that size, or the chapter's default render, out/" + name + ".png, or a PFM or EXR of that "
+           "render, encoded as the chapters encode PNGs)";
   return "then: raylife_check " + std::to_string(c.number) + " " + name + ".pfm\n" + name +
          " samples at random, so it is graded by a per-pixel z-test and an image-mean test against a reference of " +
          sizeText(c.width, c.height) + " pixels, " + std::to_string(c.referenceSpp) + " spp, seed " +
@@ -133,15 +163,24 @@ int studentSpp(const GradedChapter& c, const fs::path& image, int given, std::ve
   }
   fs::path sidecar = image;
   sidecar.replace_extension(".json");
+  // Only a --stats file (it names its chapter) is read as one: a scene beside its render (b.json beside b.pfm) is
+  // not, and is ignored with a word.
+  nlohmann::json stats;
   if (fs::exists(sidecar)) {
-    nlohmann::json stats;
     try {
       std::ifstream in(sidecar);
       stats = nlohmann::json::parse(in);
-    } catch (const nlohmann::json::exception& e) {
-      throw Usage{sidecar.string() + ": not a --stats file (" + e.what() + ")"};
+    } catch (const nlohmann::json::exception&) {
+      stats = nullptr;
     }
-    if (!stats.is_object() || !stats.contains("spp") || !stats["spp"].is_number_integer() || stats["spp"] < 1)
+    if (!stats.is_object() || !stats.contains("chapter")) {
+      notes.push_back("samples per pixel: " + std::to_string(c.spp) + ", the chapter's default (" + sidecar.string() +
+                      " beside the image is no --stats file: it has no \"chapter\" key, so it was not read)");
+      return c.spp;
+    }
+  }
+  if (fs::exists(sidecar)) {
+    if (!stats.contains("spp") || !stats["spp"].is_number_integer() || stats["spp"] < 1)
       throw Usage{sidecar.string() + ": /spp: expected the samples per pixel, an integer >= 1"};
     if (stats.contains("chapter") && stats["chapter"] != c.binary)
       throw Usage{sidecar.string() + ": /chapter: it is " + stats["chapter"].dump() + "'s, not " + c.binary + "'s"};
@@ -215,6 +254,9 @@ int run(int argc, char** argv)
   }
   if (positional.size() == 1) {
     std::cout << renderCommand(c) << "\n";
+    // The exercise renders the same image: its command too, when the exercises' build has it.
+    if (const fs::path exercise = exerciseProgram(c); !exercise.empty())
+      std::cerr << "your exercise renders it with: " << renderCommand(c, exercise) << "\n";
     std::cerr << explanation(c) << "\n";
     return 0;
   }
@@ -241,13 +283,21 @@ int run(int argc, char** argv)
     } else {
       const fs::path goldenPng = dir / (std::string(c.binary) + ".png");
       const Image defaultRender = fs::exists(goldenPng) ? readOrUsage(goldenPng) : Image();
-      if (!png || image.width != defaultRender.width || image.height != defaultRender.height)
+      if (image.width != defaultRender.width || image.height != defaultRender.height)
         throw Usage{wrongSize + "but " + c.binary + "'s golden is " + sizeText(golden.width, golden.height) +
                     (defaultRender.width ? " (or a PNG of its default render, " +
                                                sizeText(defaultRender.width, defaultRender.height) + ")"
                                          : "") +
                     "; render it with: " + renderCommand(c)};
-      grade = gradePngExactly(image, defaultRender, kPngCodes);
+      if (png) {
+        grade = gradePngExactly(image, defaultRender, kPngCodes);
+      } else {
+        // A PFM or EXR of the default render: its golden is a PNG, so the image is encoded as the chapters encode
+        // PNGs and compared code by code (the PNG's codes are recovered exactly, whichever side they are on).
+        grade = gradePngExactly(defaultRender, image, kPngCodes);
+        grade.figures.front() = "compared as PNG codes: " + imagePath.filename().string() +
+                                " clamped, sRGB-encoded and rounded to 8 bits, as the chapters write PNGs";
+      }
       notes.push_back("golden: " + goldenPng.string() + " (the chapter's default render)");
     }
   } else {
