@@ -246,7 +246,8 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
     // Load and check everything before any work: scene, size, outputs.
     if (options.scenePath.empty() && scenes.empty())
       throw SceneError("cannot find the scenes folder for the default scene " + chapter.defaultScene +
-                       ": there is no scenes/ above " + programDirectory().string() + "; set RAYLIFE_SCENES");
+                       ": there is no scenes/ above " + programDirectory().string() +
+                       ", no source tree named beside it and no ../share/raylife/scenes; set RAYLIFE_SCENES");
     const std::string scenePath = options.scenePath.empty() ? defaultScene : options.scenePath;
     // A size on the command line replaces the scene's (even one too large to render).
     const Scene scene = loadScene(scenePath, options.width || options.height);

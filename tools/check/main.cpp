@@ -64,10 +64,12 @@ fs::path goldenDirectory(const std::string& given)
   if (const char* env = std::getenv("RAYLIFE_GOLDEN"); env && *env)
     return env;
   const fs::path root = projectRoot();
-  if (root.empty())
-    throw Usage{"cannot find the goldens: there is no scenes/ and tests/golden/ above " +
-                programDirectory().string() + "; give --golden DIR"};
-  return root / "tests" / "golden";
+  if (!root.empty())
+    return root / "tests" / "golden";
+  if (const fs::path installed = installedDataFor(programDirectory()); !installed.empty())
+    return installed / "golden";
+  throw Usage{"cannot find the goldens: there is no scenes/ and tests/golden/ above " + programDirectory().string() +
+              ", no source tree named beside it and no ../share/raylife; give --golden DIR"};
 }
 
 std::string sizeText(int w, int h) { return std::to_string(w) + "x" + std::to_string(h); }
