@@ -31,6 +31,42 @@ float srgbToLinear(float encoded)
   return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
 }
 
+float toneMap(float v, ToneMap curve)
+{
+  if (!(v > 0)) // (NaN too)
+    return 0;
+  switch (curve) {
+  case ToneMap::Clamp:
+    return std::min(v, 1.0f);
+  case ToneMap::Reinhard:
+    return std::isinf(v) ? 1.0f : v / (1 + v);
+  case ToneMap::Aces:
+    if (std::isinf(v))
+      return 1;
+    return std::clamp(v * (2.51f * v + 0.03f) / (v * (2.43f * v + 0.59f) + 0.14f), 0.0f, 1.0f);
+  }
+  return v;
+}
+
+Image toneMapped(Image image, ToneMap curve)
+{
+  if (curve != ToneMap::Clamp)
+    for (float& v : image.pixels)
+      v = toneMap(v, curve);
+  return image;
+}
+
+ToneMap parseToneMap(const std::string& word)
+{
+  if (word == "clamp")
+    return ToneMap::Clamp;
+  if (word == "reinhard")
+    return ToneMap::Reinhard;
+  if (word == "aces")
+    return ToneMap::Aces;
+  throw std::invalid_argument("unknown tone map '" + word + "' (known: clamp, reinhard, aces)");
+}
+
 std::vector<unsigned char> encodePng(const Image& image)
 {
   std::vector<unsigned char> bytes(std::size_t(image.width) * std::size_t(image.height) * 3);

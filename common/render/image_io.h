@@ -22,6 +22,19 @@ float linearToSrgb(float linear);
 /// The inverse of linearToSrgb: encoded value in [0, 1] → linear value in [0, 1].
 float srgbToLinear(float encoded);
 
+/// How a PNG maps linear radiance into [0, 1] before its sRGB encoding (--tonemap).
+enum class ToneMap {
+  Clamp,    ///< v clamped to [0, 1]: everything above 1 is white (the default; what encodePng does anyway).
+  Reinhard, ///< v / (1 + v) (Reinhard et al. 2002): 1 becomes ½, nothing reaches white.
+  Aces,     ///< Narkowicz's fit of the ACES filmic curve, v(2.51v + 0.03) / (v(2.43v + 0.59) + 0.14), in [0, 1].
+};
+/// The tone curve `curve` at linear value `v` (a negative v, and NaN, give 0); the result is in [0, 1].
+float toneMap(float v, ToneMap curve);
+/// `image` with `curve` applied to every channel (Clamp: the image as it is; encodePng clamps it).
+Image toneMapped(Image image, ToneMap curve);
+/// "clamp", "reinhard" or "aces" as a ToneMap; @throws std::invalid_argument for any other word.
+ToneMap parseToneMap(const std::string& word);
+
 /// The bytes of a PNG file of `image`: each channel clamped to [0, 1], sRGB-encoded, rounded to 8 bits.
 std::vector<unsigned char> encodePng(const Image& image);
 /// The bytes of a PFM file of `image` ("PF", little-endian, linear floats unclamped, rows stored bottom-up as

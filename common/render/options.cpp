@@ -43,7 +43,8 @@ double parsePositive(const std::string& flag, const std::string& text)
 // The shared options' names (and -h, -o, -q for three of them).
 constexpr const char* kShared[] = {"--help",    "--output", "--variance",  "--stats", "--width",
                                    "--height",  "--spp",    "--time",      "--samples", "--seed",
-                                   "--threads", "--max-depth", "--quiet",  "--verbose", "--adaptive"};
+                                   "--threads", "--max-depth", "--quiet",  "--verbose", "--adaptive",
+                                   "--preview", "--tonemap"};
 
 // The option nearest to `word` by edit distance, if it is close: for "did you mean".
 std::string nearestFlag(const std::string& word, const std::vector<ChapterOption>& chapterOptions)
@@ -241,6 +242,17 @@ RenderOptions parseCommandLine(int argc, const char* const* argv, const std::vec
       o.statsPath = value();
       if (o.statsPath.empty())
         throw UsageError("--stats expects a file name");
+    } else if (arg == "--preview") {
+      o.previewPath = value();
+      if (fileExtension(o.previewPath) != ".png")
+        throw UsageError("--preview '" + o.previewPath + "': the preview must be a .png file");
+    } else if (arg == "--tonemap") {
+      const std::string curve = value();
+      try {
+        o.toneMap = parseToneMap(curve);
+      } catch (const std::invalid_argument&) {
+        throw UsageError("--tonemap '" + curve + "': expected clamp, reinhard or aces");
+      }
     } else if (arg == "--width") {
       o.width = int(parseInteger(arg, value(), 1, kMaxPixels));
     } else if (arg == "--height") {
@@ -302,7 +314,7 @@ RenderOptions parseCommandLine(int argc, const char* const* argv, const std::vec
     throw UsageError("--adaptive needs every sample of a pixel in one process; it cannot take --samples");
   // Every file written must be a different file: two renames onto one name would silently keep only one.
   std::vector<std::string> written = o.outputs;
-  for (const std::string* extra : {&o.variancePath, &o.statsPath})
+  for (const std::string* extra : {&o.variancePath, &o.statsPath, &o.previewPath})
     if (!extra->empty())
       written.push_back(*extra);
   for (std::size_t i = 0; i < written.size(); ++i)
@@ -350,7 +362,8 @@ std::string usageText(const UsageInfo& info)
   std::string text =
       "usage: " + binary + " [SCENE.json] [-o FILE.png|.pfm|.exr|.film]... [--width W] [--height H]\n" + indent +
       "[--spp N | --time SECONDS] [--samples F:C] [--seed S] [--threads T] [--max-depth D]\n" + indent +
-      "[--variance FILE] [--stats FILE] [--adaptive E] [--verbose] [--quiet] [--help]\n" +
+      "[--variance FILE] [--stats FILE] [--preview FILE.png] [--tonemap clamp|reinhard|aces]\n" + indent +
+      "[--adaptive E] [--verbose] [--quiet] [--help]\n" +
       (own.empty() ? "" : indent + own.substr(1) + "\n") +
       "\n"
       "  SCENE.json         scene file (default: " + info.defaultScene + ")\n"
@@ -369,6 +382,10 @@ std::string usageText(const UsageInfo& info)
       "  --max-depth D      longest path, in bounces (chapters that recurse)\n"
       "  --variance FILE    also write each pixel's variance of the mean, as PFM or EXR\n"
       "  --stats FILE       also write the render's figures as JSON\n"
+      "  --preview FILE.png rewrite FILE.png with the image so far every few seconds while rendering\n"
+      "                     (atomically: any image viewer can watch it converge)\n"
+      "  --tonemap CURVE    how a PNG maps radiance into [0, 1]: clamp (default), reinhard (v/(1+v))\n"
+      "                     or aces (a filmic curve); PFM and EXR stay linear\n"
       "  --adaptive E       stop sampling a pixel once the relative standard error of its mean is below E\n"
       "                     (0.05: 5 %); --spp N is then the most a pixel takes. It saves where much of\n"
       "                     the image settles fast (a sky: about half the time at E = 0.05) and little\n"

@@ -2,6 +2,8 @@
 /// @brief The command line every chapter shares (docs/command-line.md), parsed into RenderOptions.
 #pragma once
 
+#include "render/image_io.h"
+
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -83,6 +85,9 @@ struct RenderOptions {
   std::vector<std::string> outputs; ///< Output files, one per format (.png, .pfm, .exr, .film); empty: out/BINARY.png.
   std::string variancePath;         ///< --variance: PFM or EXR of each pixel's variance of the mean; empty: none.
   std::string statsPath;            ///< --stats: a JSON file of the render's figures; empty: none.
+  /// --preview: a PNG rewritten (atomically) every few seconds while the render runs, and at its end; empty: none.
+  std::string previewPath;
+  ToneMap toneMap = ToneMap::Clamp; ///< --tonemap: how PNG outputs (and the preview) map radiance into [0, 1].
   int width = 0;                    ///< --width, pixels; 0: the scene's.
   int height = 0;                   ///< --height, pixels; 0: the scene's.
   std::optional<int> spp;           ///< --spp: samples per pixel, ≥ 1.

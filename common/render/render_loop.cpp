@@ -187,6 +187,7 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
   const auto start = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
   double lastDraw = -1;
+  double lastPreview = 0;
 
   // Samples are taken in batches: batch [s0, s1) gives every pixel this process's samples s0 .. s1 − 1 (its i-th
   // is sample share.index(i) of the render; the film's sums do not depend on the order they come in). A batch
@@ -418,6 +419,10 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
     }
     done = s1;
     result.spp = done;
+    if (settings.preview && elapsed() - lastPreview >= settings.previewSeconds && done < target) {
+      settings.preview(result.film);
+      lastPreview = elapsed();
+    }
   }
   result.meanSpp = double(samplesTaken) / double(active.size());
   result.cameraRays = settings.beside ? 2 * samplesTaken : samplesTaken;

@@ -145,6 +145,10 @@ struct RenderSettings {
   /// is also taken with it, from its own Sampler(seed, x, y, s), into pixel (x + width, y) of a film twice as wide,
   /// so that one time budget holds both images. Not with a splatting estimator or adaptive sampling. May be null.
   const TraceFunction* beside = nullptr;
+  /// A progressive preview: called between batches, at most every previewSeconds, with the film so far (every
+  /// pixel's samples of the batches done). May be empty.
+  std::function<void(const Film& film)> preview = {};
+  double previewSeconds = 2; ///< See preview (> 0).
 };
 
 /// What a render produced and what it cost.

@@ -274,6 +274,8 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
       checkWritable(options.variancePath);
     if (!options.statsPath.empty() && ranks.root())
       checkWritable(options.statsPath);
+    if (!options.previewPath.empty() && ranks.root())
+      checkWritable(options.previewPath);
     if (const std::string ignored = describeIgnored(scene, chapter.uses); !ignored.empty() && !options.quiet)
       std::cerr << name << ": ignores in " << scene.fileName << ": " << ignored << "\n";
     if (options.maxDepth && !(chapter.uses & kUsesMaxDepth) && !options.quiet) // (the command line's, not the scene's)
@@ -334,6 +336,14 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
     const InterruptHandlers handlers;
     const Camera camera = scene.makeCamera(width, height);
     settings.beside = chapter.besideTrace ? &chapter.besideTrace : nullptr; // its image in the same time budget
+    if (!options.previewPath.empty() && ranks.root())
+      settings.preview = [&](const Film& sofar) { // --preview: the image so far, for any viewer to reload
+        try {
+          writeFilesAtomically({{options.previewPath, encodePng(toneMapped(sofar.mean(), options.toneMap))}});
+        } catch (const ImageIoError& e) {
+          std::cerr << name << ": warning: no preview: " << e.what() << "\n";
+        }
+      };
     RenderResult result = [&] {
       if (makeSplatTrace)
         return ranks.render(scene, camera, settings, (*makeSplatTrace)(scene, options.chapter));
@@ -372,9 +382,12 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
         filmHeader.seconds = result.seconds * ranks.size();
         files.emplace_back(path, encodeFilm({filmHeader, film}));
       } else {
-        files.emplace_back(path, encodeImage(mean, path));
+        files.emplace_back(path, encodeImage(fileExtension(path) == ".png" ? toneMapped(mean, options.toneMap) : mean,
+                                             path));
       }
     }
+    if (!options.previewPath.empty()) // the preview ends as the final image
+      files.emplace_back(options.previewPath, encodePng(toneMapped(mean, options.toneMap)));
     if (!options.variancePath.empty())
       files.emplace_back(options.variancePath, encodeImage(film.varianceOfMean(), options.variancePath));
     if (!options.statsPath.empty()) {

@@ -690,6 +690,37 @@ TEST_CASE("a chapter that does not recurse says apart from the scene that it ign
         std::string::npos);
 }
 
+TEST_CASE("a preview (--preview) is a valid PNG of the image so far while a --time render runs (issue 43)")
+{
+  const TempDir dir, capture;
+  const Child child = start(kStep08, {"--time", "8", "--width", "64", "--height", "48", "-o", "out.pfm", "--preview",
+                                      "preview.png", "--tonemap", "reinhard"},
+                            dir.path(), capture.path());
+  // The first preview comes after about two seconds; the render runs for eight.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(7);
+  while (!fs::exists(dir.path() / "preview.png") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const bool early = fs::exists(dir.path() / "preview.png") && !fs::exists(dir.path() / "out.pfm");
+  CHECK(early);
+  if (early) {
+    // Written atomically: whenever it is there, it is a whole PNG.
+    const raylife::Image preview = raylife::readPng((dir.path() / "preview.png").string());
+    CHECK(preview.width == 64);
+    CHECK(preview.height == 48);
+  }
+  const Outcome o = wait(child);
+  INFO(o.err);
+  REQUIRE(o.status == 0);
+  // At the end it is the final image (tone-mapped as the PNG outputs are); no temporary file is left.
+  CHECK(entries(dir.path()) == std::vector<std::string>{"out.pfm", "preview.png"});
+  const raylife::Image final = raylife::readPng((dir.path() / "preview.png").string());
+  const raylife::Image linear = raylife::readPfm((dir.path() / "out.pfm").string());
+  REQUIRE(final.pixels.size() == linear.pixels.size());
+  for (std::size_t i = 0; i < final.pixels.size(); i += 97)
+    CHECK(std::abs(final.pixels[i] - raylife::srgbToLinear(raylife::linearToSrgb(
+                                         raylife::toneMap(linear.pixels[i], raylife::ToneMap::Reinhard)))) < 0.02f);
+}
+
 TEST_CASE("a .film of an interrupted pass is refused: a partial film holds whole passes only")
 {
   const TempDir dir, capture;

@@ -4,6 +4,8 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -102,4 +104,33 @@ TEST_CASE("image metrics: identical - shifted and a NaN")
   CHECK(one.relativeMse == Approx(0.01 / (0.25 + 0.01) / 300));
   b.at(0, 0, 0) = std::numeric_limits<float>::quiet_NaN();
   CHECK(std::isinf(compareImages(b, a, 0.05).maxAbs)); // a NaN never passes
+}
+
+TEST_CASE("tone curves: their values at a few points against their formulas (--tonemap, issue 43)")
+{
+  using raylife::ToneMap;
+  using raylife::toneMap;
+  // clamp: v in [0, 1], as encodePng has always clamped.
+  CHECK(toneMap(0.25f, ToneMap::Clamp) == 0.25f);
+  CHECK(toneMap(2.0f, ToneMap::Clamp) == 1.0f);
+  CHECK(toneMap(-1.0f, ToneMap::Clamp) == 0.0f);
+  // Reinhard: v / (1 + v).
+  CHECK(toneMap(1.0f, ToneMap::Reinhard) == Approx(0.5));
+  CHECK(toneMap(3.0f, ToneMap::Reinhard) == Approx(0.75));
+  CHECK(toneMap(0.25f, ToneMap::Reinhard) == Approx(0.2));
+  CHECK(toneMap(1e30f, ToneMap::Reinhard) == Approx(1.0));
+  // ACES (Narkowicz's fit): v(2.51v + 0.03) / (v(2.43v + 0.59) + 0.14), clamped to [0, 1].
+  auto aces = [](double v) { return std::min(1.0, v * (2.51 * v + 0.03) / (v * (2.43 * v + 0.59) + 0.14)); };
+  CHECK(toneMap(0.0f, ToneMap::Aces) == 0.0f);
+  for (float v : {0.01f, 0.18f, 0.5f, 1.0f, 4.0f})
+    CHECK(toneMap(v, ToneMap::Aces) == Approx(aces(v)).epsilon(1e-5));
+  CHECK(toneMap(1.0f, ToneMap::Aces) == Approx(2.54 / 3.16).epsilon(1e-5));
+  CHECK(toneMap(1000.0f, ToneMap::Aces) == 1.0f); // the fit passes 1 at v = 7.24: clamped
+  // Every curve keeps NaN and negatives out of the PNG, and rises.
+  for (ToneMap m : {ToneMap::Clamp, ToneMap::Reinhard, ToneMap::Aces}) {
+    CHECK(toneMap(std::nanf(""), m) == 0.0f);
+    CHECK(toneMap(0.3f, m) < toneMap(0.6f, m));
+  }
+  CHECK(raylife::parseToneMap("aces") == ToneMap::Aces);
+  CHECK_THROWS_AS(raylife::parseToneMap("filmic"), std::invalid_argument);
 }

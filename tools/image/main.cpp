@@ -8,7 +8,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 using namespace raylife;
@@ -16,9 +18,11 @@ using namespace raylife;
 namespace {
 
 const char* const kUsage =
-    "usage: raylife_image convert IN OUT [--exposure E]\n"
+    "usage: raylife_image convert IN OUT [--exposure E] [--tonemap clamp|reinhard|aces]\n"
     "  IN, OUT          .png, .pfm or .exr (e.g. a chapter's -o x.pfm into x.png to look at it)\n"
     "  --exposure E     multiply every channel by 2^E first (E in stops, may be negative; default 0)\n"
+    "  --tonemap CURVE  how a PNG OUT maps radiance into [0, 1], after the exposure: clamp (default),\n"
+    "                   reinhard (v/(1+v)) or aces (a filmic curve), as the chapters' --tonemap\n"
     "exit status: 0 done, 1 unreadable input or failed write, 2 bad usage\n";
 
 int usageError(const std::string& message)
@@ -40,9 +44,22 @@ int main(int argc, char** argv)
     return usageError(args.empty() ? "no command given" : "unknown command '" + args[0] + "' (the one is convert)");
   std::vector<std::string> files;
   double exposure = 0;
+  ToneMap toneMap = ToneMap::Clamp;
   for (std::size_t i = 1; i < args.size(); ++i) {
     std::string arg = args[i], value;
-    if (arg.rfind("--exposure", 0) == 0) {
+    if (arg == "--tonemap" || arg.rfind("--tonemap=", 0) == 0) {
+      if (arg.size() > 9)
+        value = arg.substr(10);
+      else if (i + 1 < args.size())
+        value = args[++i];
+      else
+        return usageError("--tonemap expects clamp, reinhard or aces");
+      try {
+        toneMap = parseToneMap(value);
+      } catch (const std::invalid_argument&) {
+        return usageError("--tonemap '" + value + "': expected clamp, reinhard or aces");
+      }
+    } else if (arg.rfind("--exposure", 0) == 0) {
       if (arg.size() > 10 && arg[10] == '=')
         value = arg.substr(11);
       else if (arg.size() == 10 && i + 1 < args.size())
@@ -72,6 +89,8 @@ int main(int argc, char** argv)
     const float scale = float(std::exp2(exposure));
     for (float& v : image.pixels)
       v *= scale;
+    if (fileExtension(files[1]) == ".png") // (PFM and EXR stay linear)
+      image = toneMapped(std::move(image), toneMap);
     writeImage(image, files[1]);
   } catch (const ImageIoError& e) {
     std::cerr << "raylife_image: " << e.what() << "\n";
