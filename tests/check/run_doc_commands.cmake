@@ -3,6 +3,7 @@
 # fresh folder, each of which must succeed. So what the docs say to type works as they say.
 file(REMOVE_RECURSE ${WORK})
 file(MAKE_DIRECTORY ${WORK})
+file(MAKE_DIRECTORY ${WORK}/out) # the README's commands write into out/, which the render command makes
 set(ran 0)
 foreach(doc README.md docs/golden-tests.md)
   file(STRINGS ${SOURCE}/${doc} lines)
