@@ -1,7 +1,7 @@
 /// @file sphere_lanes.h
 /// @brief Spheres in groups of four, stored by coordinate, so that one ray is tested against four spheres at once
 /// in the lanes of a SIMD register: the flat list of a small scene. (The BVH's leaves stay one by one: tried in
-/// lanes, its shadow rays ran at about 0.7 times the speed, as docs/09_bvh_measurements.md tells.)
+/// lanes, its shadow rays ran at about 0.7 times the speed, as docs/measurements/09_bvh.md tells.)
 ///
 /// Why. A sphere test is a short chain of arithmetic and, in the one-by-one loop, several branches on the data
 /// (behind the ray? inside? beyond the nearest hit so far?) that no predictor guesses well: in the Cornell box a

@@ -390,7 +390,7 @@ std::string usageText(const UsageInfo& info)
       "                     (0.05: 5 %); --spp N is then the most a pixel takes. It saves where much of\n"
       "                     the image settles fast (a sky: about half the time at E = 0.05) and little\n"
       "                     where every pixel stays noisy (the Cornell box at 128 spp: almost every pixel\n"
-      "                     takes all 128 at E = 0.1). Biased a little; see docs/09_bvh_measurements.md" +
+      "                     takes all 128 at E = 0.1). Biased a little; see docs/measurements/09_bvh.md" +
       std::string(info.adaptive ? "\n" : "\n                     (chapters 6 to 8 only: this one ignores it)\n") +
       "  --verbose          print the render's plan (what the scene lets it skip) on standard error\n"
       "  --quiet, -q        no progress bar and no summary line\n"

@@ -636,7 +636,8 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
         "against its own plain spp ladder at the same error: the ladder's seconds and spp are interpolated log–log "
         "between the two rungs whose errors bracket the adaptive render's; beyond the ladder the end rung gives a "
         "bound (≥, ≤). Time saved is 1 − adaptive seconds / plain seconds at equal error. Adaptive sampling is "
-        "biased a little (its stopping rule depends on the samples; docs/09_bvh_measurements.md measures how little).\n\n"
+        "biased a little (its stopping rule depends on the samples; docs/measurements/09_bvh.md measures how "
+        "little).\n\n"
         "| scene | chapter | E | most spp | mean spp | seconds | rays | rel. MSE | plain spp at equal error | "
         "plain seconds | time saved |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const std::string& scene : distinct(rows, &Row::scene))
