@@ -34,7 +34,7 @@ pair() {
     ta=$(seconds "$a" $argsA)
     # shellcheck disable=SC2086
     tb=$(seconds "$b" $argsB)
-    as+=("$ta") bs+=("$tb") rs+=("$(awk -v x="$ta" -v y="$tb" 'BEGIN {print (y > 0 ? x / y : 0)}')")
+    as+=("$ta") bs+=("$tb") rs+=("$(awk -v x="$ta" -v y="$tb" 'BEGIN {printf "%.3f", (y > 0 ? x / y : 0)}')")
   done
   printf '| %s | %s | %s | %s (%s to %s) |\n' "$name" "$(printf '%s\n' "${as[@]}" | median)" \
     "$(printf '%s\n' "${bs[@]}" | median)" "$(printf '%s\n' "${rs[@]}" | median)" \
@@ -48,8 +48,8 @@ echo "Chapter 16 against chapter 8, one thread, the same image (CPU seconds, med
 echo
 echo "| scene | chapter 16 (s) | chapter 8 (s) | 16 / 8 (range) |"
 echo "| --- | --- | --- | --- |"
-for spec in "smallpt.json 160 120 64" "cornell.json 160 120 64" "mis.json 160 120 16" \
-            "random_spheres.json 320 180 16" "cornell_original.json 160 120 32" "meshes.json 160 120 16"; do
+for spec in "smallpt.json 160 120 64" "cornell.json 160 120 64" "mis.json 160 120 64" \
+            "random_spheres.json 320 180 32" "cornell_original.json 160 120 64" "meshes.json 160 120 32"; do
   read -r scene w h spp <<< "$spec"
   args="scenes/$scene --width $w --height $h --spp $spp --threads 1 --quiet -o $out/image.pfm"
   pair "$scene ($w x $h, $spp spp)" "$args" "$args" "$ch16" "$ch8"
