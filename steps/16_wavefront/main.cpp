@@ -11,7 +11,7 @@
 //   generate → extend (nearest hit) → shade (grouped by material: light sample, BSDF sample, roulette)
 //            → connect (shadow rays) → back to extend with the paths that go on.
 // Inside a stage the same arithmetic is done for every path, so it runs one path per SIMD lane (render/ray_stream.h:
-// eight doubles to a register with AVX-512). Each stage could be a GPU kernel as it stands: chapter 17 does that.
+// eight doubles to a register with AVX-512). Each stage could be a GPU kernel as it stands (chapter 17, planned).
 // A path's random numbers are still its own (seed, pixel, sample), drawn in chapter 8's order, so the image is the
 // same for any thread count and any wavefront size, and it agrees with chapter 8's by the z-test.
 #include "core/frame.h"
