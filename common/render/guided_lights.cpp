@@ -10,6 +10,17 @@ const ChapterOption kGuideOption{.name = "--guide",
                                  .defaultValue = "on",
                                  .choices = {"on", "off"}};
 
+const ChapterOption kHeuristicOption{.name = "--heuristic",
+                                     .kind = OptionKind::Choice,
+                                     .help = "how MIS weights the two strategies",
+                                     .defaultValue = "power",
+                                     .choices = {"power", "balance"}};
+
+MisHeuristic heuristicOption(const ChapterOptions& options)
+{
+  return options.choice("--heuristic") == "power" ? MisHeuristic::Power : MisHeuristic::Balance;
+}
+
 LightSampler makeLightSampler(const std::string& name, const Scene& scene, const ChapterOptions& options)
 {
   if (options.choice("--guide") == "off")

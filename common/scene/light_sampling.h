@@ -482,6 +482,19 @@ inline Real powerHeuristic(Real f, Real g)
   const Real ratio = g / f;
   return 1 / (1 + ratio * ratio);
 }
+
+/// Which of the two heuristics weighs a chapter's strategies (`--heuristic power|balance`: chapters 8 and 16).
+enum class MisHeuristic {
+  Power,   ///< powerHeuristic, the default.
+  Balance, ///< balanceHeuristic.
+};
+
+/// The MIS weight of a sample that its strategy drew with pdf `p`, the other strategy having pdf `q` for it, by
+/// `heuristic`: powerHeuristic(p, q) or balanceHeuristic(p, q), with their contract.
+inline Real misWeight(MisHeuristic heuristic, Real p, Real q)
+{
+  return heuristic == MisHeuristic::Power ? powerHeuristic(p, q) : balanceHeuristic(p, q);
+}
 // [heuristics]
 
 } // namespace raylife

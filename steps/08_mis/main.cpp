@@ -27,20 +27,9 @@
 
 using namespace raylife;
 
-/// Which MIS heuristic weights the two strategies.
-enum class Heuristic { Power, Balance };
-
-/// [weight]
-// The MIS weight of a sample that its strategy drew with pdf `p`, the other strategy having pdf `q` for it.
-Real misWeight(Heuristic heuristic, Real p, Real q)
-{
-  return heuristic == Heuristic::Power ? powerHeuristic(p, q) : balanceHeuristic(p, q);
-}
-/// [weight]
-
 /// [trace]
 // One path's estimate of the radiance arriving along `primary`, of at most `maxDepth` bounces (−1: no limit).
-Color trace(const LightSampler& lights, bool sampleLights, Heuristic heuristic, const Scene& scene,
+Color trace(const LightSampler& lights, bool sampleLights, MisHeuristic heuristic, const Scene& scene,
             const Ray& primary, Sampler& sampler, int maxDepth)
 {
   Color L(0);    // the radiance this path has gathered
@@ -126,18 +115,13 @@ int main(int argc, char** argv)
                             .defaultSpp = 64,
                             .defaultMaxDepth = -1,
                             .adaptiveSampling = true,
-                            .options = {{.name = "--heuristic",
-                                         .kind = OptionKind::Choice,
-                                         .help = "how MIS weights the two strategies",
-                                         .defaultValue = "power",
-                                         .choices = {"power", "balance"}},
-                                        kGuideOption}};
+                            .options = {kHeuristicOption, kGuideOption}};
   /// [chapter]
   // The light sampler is built once per scene, before the render, and shared (read-only) by every thread.
   // The plan (scene_plan.h): with no emitter and no point light there is nothing to sample, so the trace does BSDF
   // sampling only (exact: the image is the same, bit for bit).
   auto makeTrace = [&chapter](const Scene& scene, const ChapterOptions& options) -> TraceFunction {
-    const Heuristic heuristic = options.choice("--heuristic") == "power" ? Heuristic::Power : Heuristic::Balance;
+    const MisHeuristic heuristic = heuristicOption(options);
     return [heuristic, lights = makeLightSampler(chapter.binary, scene, options),
             sampleLights = planScene(scene, chapter.uses).lightSampling()](const Scene& s, const Ray& ray,
                                                                            Sampler& sampler, int maxDepth) {

@@ -33,14 +33,6 @@
 
 using namespace raylife;
 
-/// Which MIS heuristic weights the two strategies (as chapter 8).
-enum class Heuristic { Power, Balance };
-
-Real misWeight(Heuristic heuristic, Real p, Real q)
-{
-  return heuristic == Heuristic::Power ? powerHeuristic(p, q) : balanceHeuristic(p, q);
-}
-
 // Makes `v` hold at least n entries. The queues only grow: what they hold past the paths in flight is left as it is,
 // so a wavefront neither frees nor clears memory that the next one uses again.
 template <class T> void atLeast(std::vector<T>& v, std::size_t n)
@@ -158,7 +150,7 @@ struct Stages {
   const Scene& scene;
   LightSampler lights;
   bool sampleLights;
-  Heuristic heuristic;
+  MisHeuristic heuristic;
   bool sphereKernels;
   SphereList spheres;
 };
@@ -382,7 +374,7 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   sphereLightDirections({sl.px, sl.py, sl.pz, sl.cx, sl.cy, sl.cz, sl.radius, sl.u1, sl.u2, sl.choice, sl.guide}, nl,
                         {sl.wx, sl.wy, sl.wz, sl.pdf});
   diffuseLightSamples({sl.nx, sl.ny, sl.nz, sl.dx, sl.dy, sl.dz, sl.wx, sl.wy, sl.wz, sl.pdf, sl.betaR, sl.betaG,
-                       sl.betaB, sl.rhoR, sl.rhoG, sl.rhoB, sl.leR, sl.leG, sl.leB, st.heuristic == Heuristic::Power},
+                       sl.betaB, sl.rhoR, sl.rhoG, sl.rhoB, sl.leR, sl.leG, sl.leB, st.heuristic == MisHeuristic::Power},
                       nl, {sl.lightR, sl.lightG, sl.lightB, sl.useful});
   shadowRaysToSpheres({sl.px, sl.py, sl.pz, sl.ex, sl.ey, sl.ez, sl.gx, sl.gy, sl.gz, sl.wx, sl.wy, sl.wz, sl.cx, sl.cy,
                        sl.cz, sl.radius},
@@ -478,11 +470,7 @@ int main(int argc, char** argv)
                             .defaultSpp = 64,
                             .defaultMaxDepth = -1,
                             .adaptiveSampling = true,
-                            .options = {{.name = "--heuristic",
-                                         .kind = OptionKind::Choice,
-                                         .help = "how MIS weights the two strategies",
-                                         .defaultValue = "power",
-                                         .choices = {"power", "balance"}},
+                            .options = {kHeuristicOption,
                                         kGuideOption,
                                         {.name = "--wavefront",
                                          .kind = OptionKind::Integer,
@@ -492,7 +480,7 @@ int main(int argc, char** argv)
                                          .max = 1 << 24}}};
   /// [chapter]
   auto makeWavefront = [&chapter](const Scene& scene, const ChapterOptions& options) -> Wavefront {
-    const Heuristic heuristic = options.choice("--heuristic") == "power" ? Heuristic::Power : Heuristic::Balance;
+    const MisHeuristic heuristic = heuristicOption(options);
     // The stream kernels take a flat list of still spheres; a tree is walked one ray at a time.
     const bool sphereKernels = !scene.usesAccelerator() && scene.triangles.empty() && !scene.hasMotion();
     if (options.verbose()) {
