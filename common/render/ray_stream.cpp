@@ -156,6 +156,21 @@ void AnySpheres(const SphereList& spheres, const RayStream& rays, std::size_t co
   }
 }
 
+// The tangents s and t of the frame around unit n, by Duff et al.'s construction without a branch: Frame::fromNormal
+// and coneAxisFrame, lane by lane, the same operations.
+struct Tangents {
+  V sx, sy, sz, tx, ty, tz;
+};
+HWY_INLINE Tangents tangentsAround(D d, V nx, V ny, V nz)
+{
+  const V one = hn::Set(d, Real(1));
+  const V sign = hn::CopySign(one, nz);
+  const V a = hn::Div(hn::Set(d, Real(-1)), hn::Add(sign, nz));
+  const V b = hn::Mul(hn::Mul(nx, ny), a);
+  return Tangents{hn::Add(one, hn::Mul(hn::Mul(hn::Mul(sign, nx), nx), a)), hn::Mul(sign, b),
+                  hn::Mul(hn::Neg(sign), nx), b, hn::Add(sign, hn::Mul(hn::Mul(ny, ny), a)), hn::Neg(ny)};
+}
+
 // c[0] + w·(c[1] + w·(c[2] + … + w·c[N − 1])) by Horner's scheme, innermost first: math.h's polynomials' order.
 template <std::size_t N> HWY_INLINE V horner(D d, V w, const Real (&c)[N])
 {
@@ -215,12 +230,8 @@ void DiffuseBounces(const DiffuseBounceInput& in, std::size_t count, const Diffu
     auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
     const V nx = load(in.nx), ny = load(in.ny), nz = load(in.nz);
     // The frame (Frame::fromNormal: Duff et al., without a branch).
-    const V sign = hn::CopySign(one, nz);
-    const V a = hn::Div(hn::Set(d, Real(-1)), hn::Add(sign, nz));
-    const V b = hn::Mul(hn::Mul(nx, ny), a);
-    const V sx = hn::Add(one, hn::Mul(hn::Mul(hn::Mul(sign, nx), nx), a)), sy = hn::Mul(sign, b),
-            sz = hn::Mul(hn::Neg(sign), nx);
-    const V tx = b, ty = hn::Add(sign, hn::Mul(hn::Mul(ny, ny), a)), tz = hn::Neg(ny);
+    const Tangents f = tangentsAround(d, nx, ny, nz);
+    const V sx = f.sx, sy = f.sy, sz = f.sz, tx = f.tx, ty = f.ty, tz = f.tz;
     // wo.z = (−d)·n.
     const V woz = hn::Add(hn::Add(hn::Mul(hn::Neg(load(in.dx)), nx), hn::Mul(hn::Neg(load(in.dy)), ny)),
                           hn::Mul(hn::Neg(load(in.dz)), nz));
@@ -308,12 +319,8 @@ void SphereLightDirections(const SphereLightInput& in, std::size_t count, const 
     const V distance = hn::Sqrt(d2);
     const V ax = hn::Div(tx, distance), ay = hn::Div(ty, distance), az = hn::Div(tz, distance);
     // The frame around the axis (coneAxisFrame: Duff et al.).
-    const V sign = hn::CopySign(one, az);
-    const V a = hn::Div(hn::Set(d, Real(-1)), hn::Add(sign, az));
-    const V b = hn::Mul(hn::Mul(ax, ay), a);
-    const V sx = hn::Add(one, hn::Mul(hn::Mul(hn::Mul(sign, ax), ax), a)), sy = hn::Mul(sign, b),
-            sz = hn::Mul(hn::Neg(sign), ax);
-    const V fx = b, fy = hn::Add(sign, hn::Mul(hn::Mul(ay, ay), a)), fz = hn::Neg(ay);
+    const Tangents frame = tangentsAround(d, ax, ay, az);
+    const V sx = frame.sx, sy = frame.sy, sz = frame.sz, fx = frame.tx, fy = frame.ty, fz = frame.tz;
     const V c1 = hn::Mul(sinTheta, cosPhi), c2 = hn::Mul(sinTheta, sinPhi);
     const V vx = hn::Add(hn::Add(hn::Mul(c1, sx), hn::Mul(c2, fx)), hn::Mul(cosTheta, ax));
     const V vy = hn::Add(hn::Add(hn::Mul(c1, sy), hn::Mul(c2, fy)), hn::Mul(cosTheta, ay));
