@@ -1,6 +1,6 @@
 // Chapter 16 — making it faster on the CPU: chapter 8's estimator as a wavefront of paths.
 //
-// Chapters 1 to 15 follow one path at a time: trace a ray, shade the hit, trace the next ray, all for one pixel
+// Chapters 1 to 13 follow one path at a time: trace a ray, shade the hit, trace the next ray, all for one pixel
 // sample before the next begins. That reads well, and chapter 9 made it about as fast as one path at a time goes.
 // But a modern core does eight or sixteen floating-point operations in one instruction (SIMD), and one path has
 // nothing to put beside its own arithmetic: the lanes stay idle.
@@ -12,8 +12,9 @@
 //            → connect (shadow rays) → back to extend with the paths that go on.
 // Inside a stage the same arithmetic is done for every path, so it runs one path per SIMD lane (render/ray_stream.h:
 // eight doubles to a register with AVX-512). Each stage could be a GPU kernel as it stands (chapter 17, planned).
-// A path's random numbers are still its own (seed, pixel, sample), drawn in chapter 8's order, so the image is the
-// same for any thread count and any wavefront size, and it agrees with chapter 8's by the z-test.
+// A path's random numbers are still its own (seed, pixel, sample), drawn in chapter 8's order, and the kernels do the
+// scalar code's arithmetic operation for operation, so the image is chapter 8's, bit for bit, for any thread count
+// and any wavefront size.
 #include "core/frame.h"
 #include "core/sampling.h"
 #include "render/guided_lights.h"
@@ -130,8 +131,8 @@ struct Queues {
   // extend → shade: the nearest hit of every path's ray; found[i] says whether path i hit anything.
   std::vector<Hit> hit;
   std::vector<std::uint8_t> found;
-  std::vector<Real> t;              // what each ray hits (−1: nothing) and where
-  std::vector<std::int32_t> primitive;
+  std::vector<Real> t;                 // where each ray hits,
+  std::vector<std::int32_t> primitive; // and what (a primitive's number; −1: nothing)
   SphereHitColumns sphereHits;      // and the hit records' points, normals and error bounds
   SphereLightColumns sphereLights;  // shade: light samples towards still spheres
   // shade: the paths grouped by material, and which go on.
