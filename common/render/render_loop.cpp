@@ -37,25 +37,6 @@ std::vector<Tile> makeTiles(int width, int height)
 // is not known in advance (--time, adaptive sampling), for which the pixel's sequence stratifies instead.
 int strataPerSide(std::optional<int> spp) { return spp ? int(std::sqrt(double(*spp))) : 0; }
 
-// Where sample s of a pixel falls inside it, in [0, 1)²: jittered in its stratum when s < n², else anywhere; with
-// n = 0, point s of the pixel's scrambled Sobol sequence, stratified at every power of two and in every aligned
-// block of 16 samples (what a pixel takes between two adaptive checkpoints is whole such blocks).
-// (Inlined: it runs once per sample, and as a call chapter 6 made some 17 instructions a sample more.)
-[[gnu::always_inline]] inline Vec2 pixelOffset(PixelSampling mode, int s, int n, Sampler& sampler,
-                                               const PixelSequence& sequence)
-{
-  if (mode == PixelSampling::Centre)
-    return Vec2(Real(0.5));
-  if (n == 0)
-    return sequence.point(std::uint32_t(s));
-  const Vec2 jitter = sampler.next2D();
-  if (n == 1 || std::int64_t(s) >= std::int64_t(n) * n)
-    return jitter;
-  // Stratified: cell (s mod n, s div n) of an n × n grid, jittered inside the cell.
-  const Real cx = Real(s % n), cy = Real(s / n);
-  return Vec2((cx + jitter.x) / Real(n), (cy + jitter.y) / Real(n));
-}
-
 // The sample count at which adaptive sampling looks at the pixels again, after looking at `done`: a quarter more
 // (in steps of kAdaptiveMinSamples), so that a pixel takes at most about 25 % more samples than it needed, and a
 // long render has few checkpoints (each one a pass over the film and the end of a batch).
@@ -71,19 +52,6 @@ PrimaryRays::PrimaryRays(const Camera& camera, const RenderSettings& settings)
       strata_(strataPerSide(settings.adaptive ? std::nullopt : settings.spp)), lens_(settings.lens),
       motion_(settings.motion)
 {
-}
-
-// One pixel sample: a film position, the primary ray. (Cook's distributed ray tracing, chapter 11: a point on the
-// lens and a time in the shutter interval, drawn only where the camera and the scene have them, so a still pinhole
-// render keeps every random number where it was.)
-Ray PrimaryRays::ray(int x, int y, int s, Sampler& sampler, const PixelSequence& sequence) const
-{
-  const Vec2 offset = pixelOffset(pixelSampling_, s, strata_, sampler, sequence);
-  const Vec2 film = Vec2(Real(x), Real(y)) + offset;
-  Ray ray = lens_ ? camera_.ray(film, sampler.next2D()) : camera_.ray(film);
-  if (motion_)
-    ray.time = sampler.next1D();
-  return ray;
 }
 
 namespace {
