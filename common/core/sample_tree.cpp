@@ -143,4 +143,29 @@ Real SampleTree::pdf(Vec2 p) const
 }
 // [sampleTree]
 
+MixtureSample SampleTree::sampleMixture(Vec2 u, Real alpha) const
+{
+  const Vec2 p = u.x < alpha ? Vec2(u.x / alpha, u.y)
+                             : sample(Vec2(std::min((u.x - alpha) / (1 - alpha), kBelowOne), u.y));
+  return {p, alpha + (1 - alpha) * pdf(p)};
+}
+
+SampleForestIndex SampleTree::appendTo(SampleForest& forest) const
+{
+  if (nodes_.empty())
+    return -1;
+  const auto first = SampleForestIndex(forest.share.size() / 4);
+  for (const Node& node : nodes_) {
+    for (std::size_t q = 0; q < 4; ++q) {
+      forest.share.push_back(node.share[q]);
+      forest.child.push_back(node.child[q] < 0 ? -1 : first + SampleForestIndex(node.child[q]));
+    }
+    // (As sample() computes them: left, right, and bottom / column.)
+    const Real left = node.share[0] + node.share[2], right = node.share[1] + node.share[3];
+    forest.column.push_back(left), forest.column.push_back(right);
+    forest.bottom.push_back(node.share[0] / left), forest.bottom.push_back(node.share[1] / right);
+  }
+  return first;
+}
+
 } // namespace raylife

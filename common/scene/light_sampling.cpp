@@ -170,26 +170,42 @@ std::optional<LightSample> LightSampler::sample(const Vec3& ref, Real uLight, Ve
 
 std::optional<LightChoice> LightSampler::choose(const Vec3& ref, Real uLight, Vec2 u, Real time) const
 {
-  if (cdf_.empty())
+  const std::optional<LightChoice> chosen = chooseInCell(cellOf(ref), ref, uLight, u, time);
+  if (!chosen)
     return std::nullopt;
-  const int cell = cellOf(ref);
-  const auto [chosen, choice] = choose(uLight, cell);
-  const int light = lights_[chosen];
-  const SampleTree* tree = cell < 0 ? nullptr : &cellTree_[std::size_t(cell) * lights_.size() + chosen];
-  if (!tree || tree->uniform() || std::size_t(light) >= scene_.spheres.size())
-    return LightChoice{chosen, light, choice, u, 1};
+  return guided(*chosen);
+}
 
+LightChoice LightSampler::guided(LightChoice choice) const
+{
+  if (choice.guideTree < 0)
+    return choice;
   // A guided sphere light: u.x chooses between uniform in the cone and the learned density, and the direction
   // comes from the numbers that component gives; its pdf is the mixture's, whichever component chose it.
-  const Sphere& s = scene_.spheres[std::size_t(light)];
-  const Vec3 center = s.centerAt(time);
-  const Vec3 toCentre = center - ref;
+  const MixtureSample m = cellTree_[std::size_t(choice.guideTree)].sampleMixture(choice.u, choice.guideShare);
+  choice.u = m.p;
+  choice.guide = m.pdf;
+  return choice;
+}
+
+std::optional<LightChoice> LightSampler::chooseInCell(int cell, const Vec3& ref, Real uLight, Vec2 u, Real time) const
+{
+  // (Every return is `result`, filled in place: the record is returned without a copy.)
+  std::optional<LightChoice> result;
+  if (cdf_.empty())
+    return result;
+  LightChoice& c = result.emplace();
+  const auto [chosen, choice] = choose(uLight, cell);
+  c.index = chosen, c.light = lights_[chosen], c.choice = choice, c.u = u;
+  const std::size_t tree = std::size_t(cell) * lights_.size() + chosen;
+  if (cell < 0 || cellTree_[tree].uniform() || std::size_t(c.light) >= scene_.spheres.size())
+    return result;
+  const Sphere& s = scene_.spheres[std::size_t(c.light)];
+  const Vec3 toCentre = s.centerAt(time) - ref;
   if (glm::dot(toCentre, toCentre) <= s.radius * s.radius)
-    return LightChoice{chosen, light, choice, u, 1}; // inside the light: not guided
-  const Real a = cellShare_[std::size_t(cell) * lights_.size() + chosen];
-  const Vec2 uc = u.x < a ? Vec2(u.x / a, u.y)
-                          : tree->sample(Vec2(std::min((u.x - a) / (1 - a), std::nextafter(Real(1), Real(0))), u.y));
-  return LightChoice{chosen, light, choice, uc, a + (1 - a) * tree->pdf(uc)};
+    return result; // inside the light: not guided
+  c.guideTree = int(tree), c.guideShare = cellShare_[tree];
+  return result;
 }
 
 std::optional<LightSample> LightSampler::sampleChosen(const LightChoice& chosen, const Vec3& ref, Real time) const

@@ -21,6 +21,7 @@
 #include <cmath>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -347,6 +348,10 @@ struct LightChoice {
   /// The factor on the direction's solid-angle pdf: the guided mixture's density over the cone's (1 where the
   /// light is not guided, which leaves the pdf's bits unchanged).
   Real guide = 1;
+  /// Where the guide steers the direction: the index into LightSampler::guideTrees() of the tree whose mixture
+  /// (SampleTree::sampleMixture, uniform share guideShare) warps u, or −1 when it is not guided.
+  int guideTree = -1;
+  Real guideShare = 1; ///< The mixture's uniform share α, in (0, 1] (1 where not guided).
 };
 
 /// Chooses one of a scene's lights (its emissive spheres and triangles, and its point lights) in proportion to an
@@ -391,6 +396,30 @@ public:
   /// spheres itself, many at a time: sampleSphereCone(ref, centre, radius, u), its pdf choice · sphereConePdf ·
   /// guide.)
   std::optional<LightChoice> choose(const Vec3& ref, Real uLight, Vec2 u, Real time = 0) const;
+  /// choose()'s first half, for a wavefront that warps many points' numbers at once: the light chosen in the
+  /// guide's cell `cell` (cellOf(ref)), with u as drawn and guide 1, and in guideTree and guideShare the mixture that
+  /// choose() then applies (SampleTree::sampleMixture of guideTrees()[guideTree]: its point is u, its pdf guide).
+  std::optional<LightChoice> chooseInCell(int cell, const Vec3& ref, Real uLight, Vec2 u, Real time = 0) const;
+  /// choose()'s second half: `choice` (from chooseInCell) with its numbers u warped by its guide's mixture and guide
+  /// set to the mixture's density there; unchanged where it is not guided (guideTree −1).
+  LightChoice guided(LightChoice choice) const;
+  /// The guide's cell of point `ref` (an index into its grid), or −1 when there is no guide or the cell learned
+  /// nothing.
+  int cellOf(const Vec3& ref) const;
+  /// The guide's grid of cells, for finding many points' cells at once (chapter 16): cellOf(p) is, with
+  /// c = (p − min) × scale and each coordinate clamped to [0, size − 1] and truncated, cell
+  /// (c.z × size.y + c.y) × size.x + c.x where learned[cell] is 1, else −1. Empty `learned` without a guide.
+  struct GuideGrid {
+    Vec3 min{0};            ///< The grid's lowest corner, world space.
+    Vec3 scale{0};          ///< Cells per scene unit along each axis, > 0.
+    glm::ivec3 size{0};     ///< Cells along each axis, ≥ 1.
+    std::span<const char> learned; ///< Per cell: 1 where the pre-pass learned something.
+  };
+  /// The guide's grid (see GuideGrid).
+  GuideGrid guideGrid() const { return {gridMin_, gridScale_, gridSize_, cellLearned_}; }
+  /// The guide's learned densities in sphere lights' cones, one per cell and light (LightChoice::guideTree indexes
+  /// it); empty without a guide.
+  const std::vector<SampleTree>& guideTrees() const { return cellTree_; }
   /// The direction towards the light of `choice` (made by choose() for `ref` and `time`), as sample() returns it.
   std::optional<LightSample> sampleChosen(const LightChoice& choice, const Vec3& ref, Real time = 0) const;
 
@@ -415,8 +444,6 @@ private:
   // The index into lights_ that `uLight` chooses (cdf_ not empty), and the probability of that choice, in the
   // guide's cell `cell` (−1: by power alone).
   std::pair<std::size_t, Real> choose(Real uLight, int cell = -1) const;
-  // The guide's cell of point `ref`, or −1 when there is no guide or the cell learned nothing.
-  int cellOf(const Vec3& ref) const;
   // The index into lights_ of emitter `primitive`, or −1.
   int lightIndex(int primitive) const;
   // A direction towards lights_[k] from `ref`, chosen with probability `choice`, as the unguided sampler does.
