@@ -413,6 +413,154 @@ void DiffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const D
 }
 /// [diffuseLightSamples]
 
+void GuideCells(const GuideCellGrid& grid, const Real* px, const Real* py, const Real* pz, std::size_t count,
+                SampleForestIndex* cell)
+{
+  const D d;
+  const hn::RebindToSigned<D> di;
+  const std::size_t lanes = hn::Lanes(d);
+  // cellOf: each coordinate (p − min) × scale, clamped as std::min(size − 1, std::max(0, c)) and truncated.
+  auto coordinate = [&](const Real* p, std::size_t i, std::size_t n, int axis) {
+    const V c = hn::Mul(hn::Sub(loadLanes(d, p, i, n), hn::Set(d, grid.min[axis])), hn::Set(d, grid.scale[axis]));
+    const V top = hn::Set(d, Real(grid.size[axis] - 1)), m = maxZero(d, c);
+    return hn::Trunc(hn::IfThenElse(hn::Lt(m, top), m, top));
+  };
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    HWY_ALIGN SampleForestIndex lanesOut[hn::MaxLanes(di)];
+    if (grid.cell.empty()) {
+      std::fill(cell + i, cell + i + n, SampleForestIndex(-1));
+      continue;
+    }
+    // (Whole numbers below 2⁵³, or 2²⁴ in a float build: exact in Real.)
+    const V number = hn::Add(hn::Mul(hn::Add(hn::Mul(coordinate(pz, i, n, 2), hn::Set(d, Real(grid.size.y))),
+                                             coordinate(py, i, n, 1)),
+                                     hn::Set(d, Real(grid.size.x))),
+                             coordinate(px, i, n, 0));
+    hn::Store(hn::GatherIndex(di, grid.cell.data(), hn::ConvertTo(di, number)), di, lanesOut);
+    std::copy(lanesOut, lanesOut + n, cell + i);
+  }
+}
+
+/// [guidedWarps]
+void GuidedWarps(const SampleForest& forest, const GuideWarpInput& in, std::size_t count, const GuideWarpOutput& out)
+{
+  const D d;
+  const hn::RebindToSigned<D> di;
+  using VI = hn::Vec<decltype(di)>;
+  const std::size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d), one = hn::Set(d, Real(1)), two = hn::Set(d, Real(2)), four = hn::Set(d, Real(4));
+  const V half = hn::Set(d, Real(0.5)), belowOne = hn::Set(d, std::nextafter(Real(1), Real(0)));
+  const VI minusOneI = hn::Set(di, -1), oneI = hn::Set(di, 1), twoI = hn::Set(di, 2);
+  const Real *share = forest.share.data(), *column = forest.column.data(), *bottom = forest.bottom.data();
+  const SampleForestIndex* child = forest.child.data();
+  // std::min(v, 1⁻) and std::clamp(v, 0, 1⁻), the same bits (NaN passes through, as there).
+  auto belowOneOf = [&](V v) { return hn::IfThenElse(hn::Lt(belowOne, v), belowOne, v); };
+  auto clamped = [&](V v) { return hn::IfThenElse(hn::Lt(v, zero), zero, belowOneOf(v)); };
+
+  // One group of lanes on its way down: each lane's node, and what sample() and pdf() carry from level to level.
+  struct Walk {
+    V alpha, ux0, uy0, ux, uy, offsetX, offsetY, size, x, y, density;
+    M guided, uniformPart, active;
+    VI root, node;
+  };
+  // Each lane's next node is a gather that waits for the last: a walk is a chain of memory latencies. Four groups
+  // walk side by side, so that the processor has four chains to overlap.
+  constexpr std::size_t kGroups = 4;
+  Walk walk[kGroups];
+  // One level down for every group with a lane still on its way (`step` takes one group a level), until none is.
+  auto walkDown = [&](std::size_t groups, auto&& step) {
+    for (bool any = true; any;) {
+      any = false;
+      for (std::size_t g = 0; g < groups; ++g)
+        if (!hn::AllFalse(d, walk[g].active)) {
+          step(walk[g]);
+          any = true;
+        }
+    }
+  };
+  for (std::size_t first = 0; first < count; first += kGroups * lanes) {
+    const std::size_t groups = std::min(kGroups, (count - first + lanes - 1) / lanes);
+    for (std::size_t g = 0; g < groups; ++g) {
+      Walk& w = walk[g];
+      const std::size_t i = first + g * lanes, n = std::min(lanes, count - i);
+      HWY_ALIGN SampleForestIndex rootLanes[hn::MaxLanes(di)];
+      for (std::size_t j = 0; j < lanes; ++j)
+        rootLanes[j] = in.root[i + std::min(j, n - 1)];
+      w.root = hn::Load(di, rootLanes);
+      w.alpha = loadLanes(d, in.alpha.data(), i, n), w.ux0 = loadLanes(d, in.u1.data(), i, n);
+      w.uy0 = loadLanes(d, in.u2.data(), i, n);
+      w.guided = hn::RebindMask(d, hn::Lt(minusOneI, w.root));
+      w.uniformPart = hn::Lt(w.ux0, w.alpha);
+      // The tree's component: SampleTree::sample of ((u.x − α)/(1 − α) kept below 1, u.y), down each lane's tree.
+      w.ux = belowOneOf(hn::Div(hn::Sub(w.ux0, w.alpha), hn::Sub(one, w.alpha))), w.uy = w.uy0;
+      w.offsetX = zero, w.offsetY = zero, w.size = one;
+      w.active = hn::AndNot(w.uniformPart, w.guided);
+      w.node = hn::IfThenElseZero(hn::RebindMask(di, w.active), w.root);
+    }
+    walkDown(groups, [&](Walk& w) {
+      // Column, then quadrant in it (each division as sample() does it: only the one its branch takes).
+      const VI at = hn::ShiftLeft<2>(w.node), at2 = hn::ShiftLeft<1>(w.node);
+      const V left = hn::GatherIndex(d, column, at2), right = hn::GatherIndex(d, column, hn::Add(at2, oneI));
+      const M qx = hn::AndNot(hn::Lt(w.ux, left), hn::Lt(zero, right));
+      const VI qxI = hn::IfThenElseZero(hn::RebindMask(di, qx), oneI);
+      const V columnShare = hn::IfThenElse(qx, right, left);
+      const V nx = hn::Div(hn::Sub(w.ux, hn::IfThenElseZero(qx, left)), columnShare);
+      const V bottomShare = hn::GatherIndex(d, share, hn::Add(at, qxI));
+      const V pBottom = hn::GatherIndex(d, bottom, hn::Add(at2, qxI));
+      const M qy = hn::AndNot(hn::Lt(w.uy, pBottom), hn::Lt(bottomShare, columnShare));
+      const V ny = hn::Div(hn::Sub(w.uy, hn::IfThenElseZero(qy, pBottom)),
+                           hn::IfThenElse(qy, hn::Sub(one, pBottom), pBottom));
+      const V nextSize = hn::Mul(w.size, half); // (exactly size / 2)
+      w.ux = hn::IfThenElse(w.active, clamped(nx), w.ux);
+      w.uy = hn::IfThenElse(w.active, clamped(ny), w.uy);
+      w.offsetX = hn::IfThenElse(w.active, hn::Add(w.offsetX, hn::Mul(nextSize, hn::IfThenElseZero(qx, one))),
+                                 w.offsetX);
+      w.offsetY = hn::IfThenElse(w.active, hn::Add(w.offsetY, hn::Mul(nextSize, hn::IfThenElseZero(qy, one))),
+                                 w.offsetY);
+      w.size = hn::IfThenElse(w.active, nextSize, w.size);
+      const VI quadrant = hn::Add(qxI, hn::IfThenElseZero(hn::RebindMask(di, qy), twoI));
+      const VI next = hn::GatherIndex(di, child, hn::Add(at, quadrant));
+      w.active = hn::And(w.active, hn::RebindMask(d, hn::Lt(minusOneI, next)));
+      w.node = hn::IfThenElseZero(hn::RebindMask(di, w.active), next);
+    });
+    for (std::size_t g = 0; g < groups; ++g) {
+      Walk& w = walk[g];
+      // The point: the uniform component's u.x ÷ α, or the leaf's corner plus its size times the numbers left.
+      w.ux = hn::IfThenElse(w.uniformPart, hn::Div(w.ux0, w.alpha),
+                            belowOneOf(hn::Add(w.offsetX, hn::Mul(w.size, w.ux))));
+      w.uy = hn::IfThenElse(w.uniformPart, w.uy0, belowOneOf(hn::Add(w.offsetY, hn::Mul(w.size, w.uy))));
+      // Then the mixture's density there: α + (1 − α) × SampleTree::pdf, the product down to the point's leaf of
+      // each quadrant's share over its quarter of the area.
+      w.x = clamped(w.ux), w.y = clamped(w.uy), w.density = one;
+      w.active = w.guided;
+      w.node = hn::IfThenElseZero(hn::RebindMask(di, w.active), w.root);
+    }
+    walkDown(groups, [&](Walk& w) {
+      const M qx = hn::Ge(w.x, half), qy = hn::Ge(w.y, half);
+      const VI quadrant = hn::Add(hn::IfThenElseZero(hn::RebindMask(di, qx), oneI),
+                                  hn::IfThenElseZero(hn::RebindMask(di, qy), twoI));
+      const VI at = hn::Add(hn::ShiftLeft<2>(w.node), quadrant);
+      w.density =
+          hn::IfThenElse(w.active, hn::Mul(w.density, hn::Mul(four, hn::GatherIndex(d, share, at))), w.density);
+      w.x = hn::IfThenElse(w.active, belowOneOf(hn::Sub(hn::Mul(two, w.x), hn::IfThenElseZero(qx, one))), w.x);
+      w.y = hn::IfThenElse(w.active, belowOneOf(hn::Sub(hn::Mul(two, w.y), hn::IfThenElseZero(qy, one))), w.y);
+      const VI next = hn::GatherIndex(di, child, at);
+      w.active = hn::And(w.active, hn::RebindMask(d, hn::Lt(minusOneI, next)));
+      w.node = hn::IfThenElseZero(hn::RebindMask(di, w.active), next);
+    });
+    for (std::size_t g = 0; g < groups; ++g) {
+      const Walk& w = walk[g];
+      const std::size_t i = first + g * lanes, n = std::min(lanes, count - i);
+      storeLanes(d, hn::IfThenElse(w.guided, w.ux, w.ux0), out.u1.data(), i, n);
+      storeLanes(d, hn::IfThenElse(w.guided, w.uy, w.uy0), out.u2.data(), i, n);
+      storeLanes(d, hn::IfThenElse(w.guided, hn::Add(w.alpha, hn::Mul(hn::Sub(one, w.alpha), w.density)), one),
+                 out.pdf.data(), i, n);
+    }
+  }
+}
+/// [guidedWarps]
+
 Real LanesOf() { return Real(hn::Lanes(D())); }
 
 } // namespace HWY_NAMESPACE
@@ -429,6 +577,8 @@ HWY_EXPORT(SphereHitPoints);
 HWY_EXPORT(SphereLightDirections);
 HWY_EXPORT(ShadowRaysToSpheres);
 HWY_EXPORT(DiffuseLightSamples);
+HWY_EXPORT(GuidedWarps);
+HWY_EXPORT(GuideCells);
 HWY_EXPORT(LanesOf);
 
 void RayStream::resize(std::size_t n)
@@ -499,6 +649,17 @@ void diffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const D
 void shadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const ShadowSpawnOutput& out)
 {
   HWY_DYNAMIC_DISPATCH(ShadowRaysToSpheres)(in, count, out);
+}
+
+void guideCells(const GuideCellGrid& grid, std::span<const Real> px, std::span<const Real> py,
+                std::span<const Real> pz, std::size_t count, std::span<SampleForestIndex> cell)
+{
+  HWY_DYNAMIC_DISPATCH(GuideCells)(grid, px.data(), py.data(), pz.data(), count, cell.data());
+}
+
+void guidedWarps(const SampleForest& forest, const GuideWarpInput& in, std::size_t count, const GuideWarpOutput& out)
+{
+  HWY_DYNAMIC_DISPATCH(GuidedWarps)(forest, in, count, out);
 }
 
 std::vector<SimdTarget> simdTargets()

@@ -19,6 +19,7 @@
 #pragma once
 
 #include "core/math.h"
+#include "core/sample_tree.h"
 #include "geometry/ray.h"
 #include "geometry/sphere.h"
 
@@ -165,6 +166,42 @@ struct SphereLightOutput {
 /// For points [0, count): sampleSphereCone(p, c, r, u) and choice · sphereConePdf(p, c, r) · guide, bit for bit:
 /// the direction and pdf LightSampler::sampleChosen gives for a sphere.
 void sphereLightDirections(const SphereLightInput& in, std::size_t count, const SphereLightOutput& out);
+
+/// The light guide's grid of cells (LightSampler::GuideGrid) with, per cell, the number guideCells gives for it.
+struct GuideCellGrid {
+  Vec3 min{0};        ///< The grid's lowest corner, world space.
+  Vec3 scale{0};      ///< Cells per scene unit along each axis, > 0.
+  glm::ivec3 size{0}; ///< Cells along each axis, ≥ 1 (at most 2²⁴ cells in all in a float build).
+  /// Per cell: its own number where the guide learned something there, else −1; empty: no guide.
+  std::span<const SampleForestIndex> cell;
+};
+
+/// For points [0, count): LightSampler::cellOf, bit for bit: the guide's cell of (px, py, pz)[i] or −1.
+void guideCells(const GuideCellGrid& grid, std::span<const Real> px, std::span<const Real> py,
+                std::span<const Real> pz, std::size_t count, std::span<SampleForestIndex> cell);
+
+/// Light samples' direction numbers and the light guide's mixture that warps each (LightChoice::u, guideTree,
+/// guideShare), stored by coordinate.
+struct GuideWarpInput {
+  /// The root, in the forest, of the tree whose mixture warps each point's numbers (SampleTree::appendTo), or −1
+  /// where they are not guided.
+  std::span<const SampleForestIndex> root;
+  std::span<const Real> alpha; ///< The mixture's uniform share α, in (0, 1].
+  std::span<const Real> u1;    ///< The numbers as drawn: x, in [0, 1).
+  std::span<const Real> u2;    ///< The numbers as drawn: y, in [0, 1).
+};
+
+/// The warped numbers and the mixture's density there, stored by coordinate.
+struct GuideWarpOutput {
+  std::span<Real> u1;  ///< The warped numbers: x, in [0, 1).
+  std::span<Real> u2;  ///< The warped numbers: y, in [0, 1).
+  std::span<Real> pdf; ///< The mixture's density at (u1, u2) (LightChoice::guide), > 0; 1 where not guided.
+};
+
+/// For points [0, count): SampleTree::sampleMixture(u, α) of the tree rooted at `root` in `forest`, its point and
+/// density bit for bit (u unchanged and density 1 where root is −1). Each lane walks its own tree (gathering its
+/// nodes), twice: down to the leaf its numbers choose, then down to the leaf of the point, for its density.
+void guidedWarps(const SampleForest& forest, const GuideWarpInput& in, std::size_t count, const GuideWarpOutput& out);
 
 /// Light samples at diffuse surfaces, stored by coordinate: what the light brings if its shadow ray gets through.
 struct DiffuseLightInput {

@@ -75,19 +75,27 @@ struct Paths {
 };
 /// [paths]
 
-/// The shadow rays of one round, with the light each would add if it gets through (connect's queue).
+/// The shadow rays of one round, with the light each would add if it gets through (connect's queue): entries
+/// [0, size()) of the arrays, which keep their length from round to round (a path adds at most one a round).
 struct ShadowRays {
   RayStream ray;
   std::vector<Color> light;
   std::vector<std::uint32_t> slot;
   std::vector<Real> time;
-  void clear() { ray.resize(0), light.clear(), slot.clear(), time.clear(); }
+  std::size_t count = 0;
+  std::size_t size() const { return count; }
+  // Empties the queue, with room for `n` rays.
+  void clear(std::size_t n)
+  {
+    count = 0;
+    if (ray.size() < n)
+      ray.resize(n), light.resize(n), slot.resize(n), time.resize(n);
+  }
   void push(const Ray& r, const Color& L, std::uint32_t s)
   {
-    const std::size_t i = ray.size();
-    ray.resize(i + 1);
-    ray.set(i, r);
-    light.push_back(L), slot.push_back(s), time.push_back(r.time);
+    ray.set(count, r);
+    light[count] = L, slot[count] = s, time[count] = r.time;
+    ++count;
   }
 };
 
@@ -108,13 +116,20 @@ struct SphereHitColumns {
 /// diffuseLightSamples and shadowRaysToSpheres, and their output.
 struct SphereLightColumns {
   std::vector<std::uint32_t> path; // which path each entry is
+  // The guided ones among them (entry guided[g] is the g-th): the light guide's tree (GuideLanes::root), its
+  // uniform share, the numbers as drawn, and guidedWarps' output.
+  std::vector<std::uint32_t> guided;
+  std::vector<SampleForestIndex> root;
+  std::vector<Real> alpha, v1, v2, w1, w2, density;
   std::vector<Real> px, py, pz, cx, cy, cz, radius, u1, u2, choice, guide, wx, wy, wz, pdf; // the directions
   std::vector<Real> nx, ny, nz, dx, dy, dz, betaR, betaG, betaB, rhoR, rhoG, rhoB, leR, leG, leB, lightR, lightG,
       lightB, useful;                                                                     // the light they bring
   std::vector<Real> ex, ey, ez, gx, gy, gz, ox, oy, oz, t;                                // the shadow rays
   void resize(std::size_t n)
   {
-    atLeast(path, n);
+    atLeast(path, n), atLeast(guided, n), atLeast(root, n);
+    for (std::vector<Real>* v : {&alpha, &v1, &v2, &w1, &w2, &density})
+      atLeast(*v, n);
     for (std::vector<Real>* v : {&px,    &py,    &pz,    &cx,    &cy,    &cz,     &radius, &u1,     &u2,
                                  &choice, &guide, &wx,   &wy,    &wz,    &pdf,    &nx,     &ny,     &nz,
                                  &dx,    &dy,    &dz,    &betaR, &betaG, &betaB,  &rhoR,   &rhoG,   &rhoB,
@@ -140,9 +155,31 @@ struct Queues {
   std::vector<std::uint8_t> goesOn;
   // shade's diffuse bounces, by coordinate (the stream kernel's input and output).
   std::vector<Real> nx, ny, nz, dx, dy, dz, u1, u2, wx, wy, wz, cosTheta, pdf;
+  // shade's diffuse hits' points and the light guide's cell of each (guideCells).
+  std::vector<Real> px, py, pz;
+  std::vector<SampleForestIndex> cell;
   // shade → connect: shadow rays, and the light each brings if it gets through.
   ShadowRays shadows;
   std::vector<std::uint8_t> blocked;
+};
+
+/// The light guide's trees (LightSampler::guideTrees) in one table, for warping many light samples' numbers at once
+/// (guidedWarps): root[k] is tree k's root in `forest`, or −1 for a tree that learned nothing.
+struct GuideLanes {
+  SampleForest forest;
+  std::vector<SampleForestIndex> root;
+  std::vector<SampleForestIndex> cellNumber; // guideCells' table: per cell its number where learned, else −1
+  GuideCellGrid grid;
+  explicit GuideLanes(const LightSampler& lights)
+  {
+    for (const SampleTree& tree : lights.guideTrees())
+      root.push_back(tree.appendTo(forest));
+    const LightSampler::GuideGrid g = lights.guideGrid();
+    for (std::size_t k = 0; k < g.learned.size(); ++k)
+      cellNumber.push_back(g.learned[k] ? SampleForestIndex(k) : -1);
+    grid = {g.min, g.scale, g.size, {}};
+  }
+  GuideCellGrid cells() const { return {grid.min, grid.scale, grid.size, cellNumber}; }
 };
 
 /// What the stages need of the scene: the scene, its lights, and whether its primitives are a flat list of still
@@ -150,6 +187,7 @@ struct Queues {
 struct Stages {
   const Scene& scene;
   LightSampler lights;
+  GuideLanes guide;
   bool sampleLights;
   MisHeuristic heuristic;
   bool sphereKernels;
@@ -283,14 +321,16 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   // queue. A still sphere's direction and shadow ray are left to the stream kernels (below) when `sphereLanes`.
   SphereLightColumns& sl = q.sphereLights;
   sl.resize(n);
-  std::size_t nl = 0;
-  auto sampleLight = [&](std::uint32_t i, const Material& m, bool sphereLanes) {
+  std::size_t nl = 0, ng = 0;
+  auto sampleLight = [&](std::uint32_t i, const Material& m, int cell, bool sphereLanes) {
     const Hit& hit = q.hit[i];
     const Real uLight = paths.sampler[i].next1D();
     const Vec2 uDirection = paths.sampler[i].next2D();
     // (With no light to sample, the numbers are drawn all the same, so the path is unchanged.)
+    // (The light is chosen here; the guide's warp of a still sphere's numbers is left to the lanes, below.)
     const std::optional<LightChoice> chosen =
-        st.sampleLights ? st.lights.choose(hit.point, uLight, uDirection, hit.time) : std::nullopt;
+        st.sampleLights ? st.lights.chooseInCell(cell, hit.point, uLight, uDirection, hit.time)
+                        : std::nullopt;
     if (!chosen)
       return;
     if (sphereLanes && chosen->light >= 0 && std::size_t(chosen->light) < scene.spheres.size() &&
@@ -299,7 +339,12 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
       const Color& Le = scene.materials[std::size_t(s.material)].emission;
       sl.path[nl] = i, sl.px[nl] = hit.point.x, sl.py[nl] = hit.point.y, sl.pz[nl] = hit.point.z;
       sl.cx[nl] = s.center.x, sl.cy[nl] = s.center.y, sl.cz[nl] = s.center.z, sl.radius[nl] = s.radius;
-      sl.u1[nl] = chosen->u.x, sl.u2[nl] = chosen->u.y, sl.choice[nl] = chosen->choice, sl.guide[nl] = chosen->guide;
+      sl.u1[nl] = chosen->u.x, sl.u2[nl] = chosen->u.y, sl.choice[nl] = chosen->choice, sl.guide[nl] = 1;
+      if (chosen->guideTree >= 0) { // (warped below, with the other guided ones)
+        sl.guided[ng] = std::uint32_t(nl), sl.root[ng] = st.guide.root[std::size_t(chosen->guideTree)];
+        sl.alpha[ng] = chosen->guideShare, sl.v1[ng] = chosen->u.x, sl.v2[ng] = chosen->u.y;
+        ++ng;
+      }
       sl.nx[nl] = hit.normal.x, sl.ny[nl] = hit.normal.y, sl.nz[nl] = hit.normal.z;
       sl.dx[nl] = paths.ray.dx[i], sl.dy[nl] = paths.ray.dy[i], sl.dz[nl] = paths.ray.dz[i];
       sl.betaR[nl] = paths.beta[i].r, sl.betaG[nl] = paths.beta[i].g, sl.betaB[nl] = paths.beta[i].b;
@@ -312,7 +357,7 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
     }
     const Frame frame = Frame::fromNormal(hit.normal);
     const Vec3 wo = frame.toLocal(-Vec3(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]));
-    const std::optional<LightSample> ls = st.lights.sampleChosen(*chosen, hit.point, hit.time);
+    const std::optional<LightSample> ls = st.lights.sampleChosen(st.lights.guided(*chosen), hit.point, hit.time);
     if (!ls)
       return;
     const Vec3 wi = frame.toLocal(ls->wi);
@@ -359,19 +404,31 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   // once, one path per lane (diffuseBounces: lambertianSample and the frame, bit for bit).
   const std::size_t nd = q.diffuse.size();
   for (std::vector<Real>* v : {&q.nx, &q.ny, &q.nz, &q.dx, &q.dy, &q.dz, &q.u1, &q.u2, &q.wx, &q.wy, &q.wz,
-                               &q.cosTheta, &q.pdf})
+                               &q.cosTheta, &q.pdf, &q.px, &q.py, &q.pz})
     atLeast(*v, nd);
+  atLeast(q.cell, nd);
+  for (std::size_t k = 0; k < nd; ++k) {
+    const Vec3& p = q.hit[q.diffuse[k]].point;
+    q.px[k] = p.x, q.py[k] = p.y, q.pz[k] = p.z;
+  }
+  guideCells(st.guide.cells(), q.px, q.py, q.pz, nd, q.cell); // (the light guide's cell of each, as cellOf finds it)
   for (std::size_t k = 0; k < nd; ++k) {
     const std::uint32_t i = q.diffuse[k];
     const Hit& hit = q.hit[i];
-    sampleLight(i, material(i), true);
+    sampleLight(i, material(i), int(q.cell[k]), true);
     paths.sampler[i].next1D(); // the lobe choice, which a diffuse surface does not use (drawn as in chapter 8)
     const Vec2 u = paths.sampler[i].next2D();
     q.nx[k] = hit.normal.x, q.ny[k] = hit.normal.y, q.nz[k] = hit.normal.z;
     q.dx[k] = paths.ray.dx[i], q.dy[k] = paths.ray.dy[i], q.dz[k] = paths.ray.dz[i], q.u1[k] = u.x, q.u2[k] = u.y;
   }
-  // The diffuse paths' light samples towards still spheres, all at once: the directions (sampleSphereCone), the
-  // light each would bring (Lambert's f, the MIS weight), and the shadow rays' origins and lengths.
+  // The diffuse paths' light samples towards still spheres, all at once: the guide's warp of their numbers, the
+  // directions (sampleSphereCone), the light each would bring (Lambert's f, the MIS weight), and the shadow rays'
+  // origins and lengths.
+  guidedWarps(st.guide.forest, {sl.root, sl.alpha, sl.v1, sl.v2}, ng, {sl.w1, sl.w2, sl.density});
+  for (std::size_t g = 0; g < ng; ++g) {
+    const std::uint32_t k = sl.guided[g];
+    sl.u1[k] = sl.w1[g], sl.u2[k] = sl.w2[g], sl.guide[k] = sl.density[g];
+  }
   sphereLightDirections({sl.px, sl.py, sl.pz, sl.cx, sl.cy, sl.cz, sl.radius, sl.u1, sl.u2, sl.choice, sl.guide}, nl,
                         {sl.wx, sl.wy, sl.wz, sl.pdf});
   diffuseLightSamples({sl.nx, sl.ny, sl.nz, sl.dx, sl.dy, sl.dz, sl.wx, sl.wy, sl.wz, sl.pdf, sl.betaR, sl.betaG,
@@ -399,7 +456,7 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   for (const std::uint32_t i : q.other) {
     const Material& m = material(i);
     if (m.type != MaterialType::Mirror && m.type != MaterialType::Glass)
-      sampleLight(i, m, false);
+      sampleLight(i, m, st.lights.cellOf(q.hit[i].point), false);
     const Frame frame = Frame::fromNormal(q.hit[i].normal);
     const Vec3 wo = frame.toLocal(-Vec3(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]));
     const Real uChoice = paths.sampler[i].next1D();
@@ -426,7 +483,7 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
 void connect(const Stages& st, Queues& q, std::span<Color> out)
 {
   const ShadowRays& shadows = q.shadows;
-  const std::size_t n = shadows.ray.size();
+  const std::size_t n = shadows.size();
   q.blocked.assign(n, 0);
   if (st.sphereKernels) {
     anySpheres(st.spheres, shadows.ray, n, q.blocked);
@@ -452,7 +509,7 @@ void renderWavefront(const Stages& st, Queues& q, const PrimaryRays& primary, st
   generate(primary, keys, q.paths);
   for (int bounce = 0; q.paths.size() > 0; ++bounce) {
     extend(st, q);
-    q.shadows.clear();
+    q.shadows.clear(q.paths.size());
     shade(st, bounce, maxDepth, q, out);
     connect(st, q, out);
   }
@@ -493,9 +550,11 @@ int main(int argc, char** argv)
                                               : "through the scene, one ray at a time (triangles or motion)")
                 << "; the kernels run " << simd.lanes << " paths a vector (" << simd.name << ")\n";
     }
+    LightSampler lights = makeLightSampler(chapter.binary, scene, options);
+    GuideLanes guide(lights);
     const auto stages = std::make_shared<const Stages>(
-        Stages{scene, makeLightSampler(chapter.binary, scene, options), planScene(scene, chapter.uses).lightSampling(),
-               heuristic, sphereKernels, SphereList::from(scene.spheres)});
+        Stages{scene, std::move(lights), std::move(guide), planScene(scene, chapter.uses).lightSampling(), heuristic,
+               sphereKernels, SphereList::from(scene.spheres)});
     // Each thread of the render gets its own queues.
     auto workers = [stages]() -> WavefrontFunction {
       return [stages, queues = std::make_shared<Queues>()](const Scene&, const PrimaryRays& primary,

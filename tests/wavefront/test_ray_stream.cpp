@@ -2,21 +2,26 @@
 // instruction set this machine runs (each forced in turn), bit for bit: the nearest and any sphere of a flat list
 // against the loop over intersectSphere, the hit records against sphereSurfacePoint, the directions towards spherical
 // lights against sampleSphereCone and sphereConePdf, the shadow rays against offsetRayOrigin and intersectSphere, and
-// the diffuse bounces against lambertianSample in Frame; on random rays and hits, with stream lengths that are not a
-// multiple of the lanes.
+// the diffuse bounces against lambertianSample in Frame, the light guide's cells and warps against LightSampler::cellOf
+// and SampleTree::sampleMixture; on random rays, hits and numbers, with stream lengths that are not a multiple of the
+// lanes.
 #include "core/frame.h"
 #include "core/rng.h"
 #include "render/ray_stream.h"
 #include "shading/material.h"
 #include "scene/light_sampling.h"
+#include "scene/scene.h"
 #include "shading/bsdf.h"
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
 #include <iostream>
+#include <limits>
+#include <string>
 #include <vector>
 
 using namespace raylife;
@@ -346,5 +351,113 @@ TEST_CASE("stream kernels: diffuseLightSamples equals Lambert's f, its pdf and t
       CHECK(lit > count / 4);
       CHECK(wrong == 0);
     }
+  });
+}
+
+namespace {
+
+// Points crowded into a few small regions of the square (as a lamp's visible part crowds a cone's samples), so the
+// trees are deep in places and shallow elsewhere.
+std::vector<Vec2> crowdedPoints(int count, std::uint64_t seed)
+{
+  Pcg32 rng(seed, 3);
+  auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+  std::vector<Vec2> points;
+  const Vec2 blob(u(), u());
+  for (int i = 0; i < count; ++i) {
+    const Real pick = u();
+    if (pick < Real(0.5))
+      points.emplace_back(Real(0.02) * u(), u()); // a thin strip
+    else if (pick < Real(0.8))
+      points.emplace_back(std::min(blob.x + Real(0.04) * u(), Real(0.99)), std::min(blob.y + Real(0.06) * u(), Real(0.99)));
+    else
+      points.emplace_back(u(), u());
+  }
+  return points;
+}
+
+} // namespace
+
+TEST_CASE("stream kernels: guidedWarps equals SampleTree::sampleMixture, point and density, bit for bit")
+{
+  // A forest of trees of many shapes (and one uniform density, which has no root), as the light guide's cells hold.
+  std::vector<SampleTree> trees;
+  for (int k = 0; k < 12; ++k)
+    trees.push_back(SampleTree::fromPoints(crowdedPoints(200 + 400 * k, std::uint64_t(k)), 2 + k, 0.02 + 0.01 * k, 8));
+  trees.push_back(SampleTree());
+  SampleForest forest;
+  std::vector<SampleForestIndex> roots;
+  for (const SampleTree& tree : trees)
+    roots.push_back(tree.appendTo(forest));
+  REQUIRE(roots.back() == -1);
+  REQUIRE(std::count(roots.begin(), roots.end(), -1) == 1); // every other tree learned something
+  forEachTarget([&](const SimdTarget&) {
+    const std::size_t count = 20011;
+    Pcg32 rng(12, 1);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    const Real alphas[] = {Real(0.15), Real(0.3), Real(0.5), Real(0.7), Real(1)};
+    std::vector<std::size_t> which(count);
+    std::vector<SampleForestIndex> root(count);
+    std::vector<Real> alpha(count), u1(count), u2(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      which[i] = rng.nextUint() % trees.size();
+      root[i] = roots[which[i]];
+      alpha[i] = alphas[rng.nextUint() % 5];
+      // The edges too: 0, just below 1, and u.x exactly at α (the first number of the tree's component).
+      u1[i] = i % 13 == 0 ? Real(0) : i % 13 == 1 ? std::nextafter(Real(1), Real(0)) : i % 13 == 2 ? alpha[i] : u();
+      u2[i] = i % 17 == 0 ? Real(0) : i % 17 == 1 ? std::nextafter(Real(1), Real(0)) : u();
+    }
+    std::vector<Real> w1(count), w2(count), pdf(count);
+    guidedWarps(forest, {root, alpha, u1, u2}, count, {w1, w2, pdf});
+    std::size_t wrong = 0, throughTree = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const MixtureSample expected =
+          root[i] < 0 ? MixtureSample{Vec2(u1[i], u2[i]), 1} : trees[which[i]].sampleMixture(Vec2(u1[i], u2[i]), alpha[i]);
+      throughTree += root[i] >= 0 && !(u1[i] < alpha[i]);
+      wrong += !sameBits(w1[i], expected.p.x) || !sameBits(w2[i], expected.p.y) || !sameBits(pdf[i], expected.pdf);
+    }
+    CHECK(wrong == 0);
+    CHECK(throughTree > count / 3); // (the tree's component was taken often, not only the uniform one)
+  });
+}
+
+TEST_CASE("stream kernels: guideCells equals LightSampler::cellOf, bit for bit, in the grid and outside it")
+{
+  const Scene smallpt = loadScene(std::string(RAYLIFE_SCENES) + "/smallpt.json");
+  const LightSampler lights(smallpt, LightGuiding{.paths = 256, .threads = 1});
+  const LightSampler::GuideGrid g = lights.guideGrid();
+  REQUIRE(!g.learned.empty());
+  std::vector<SampleForestIndex> table;
+  for (std::size_t k = 0; k < g.learned.size(); ++k)
+    table.push_back(g.learned[k] ? SampleForestIndex(k) : -1);
+  REQUIRE(std::count(table.begin(), table.end(), -1) < std::ptrdiff_t(table.size())); // some cells learned
+  const GuideCellGrid grid{g.min, g.scale, g.size, table};
+  forEachTarget([&](const SimdTarget&) {
+    const std::size_t count = 10007;
+    Pcg32 rng(4, 4);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    std::vector<Real> px(count), py(count), pz(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      // The room and well beyond it on every side; a few points at infinity or NaN.
+      Vec3 p(-50 + 200 * u(), -50 + 180 * u(), -50 + 270 * u());
+      if (i % 101 == 0)
+        p[int(i % 3)] = i % 2 ? kInfinity : -kInfinity;
+      if (i % 103 == 0)
+        p[int(i % 3)] = std::numeric_limits<Real>::quiet_NaN();
+      px[i] = p.x, py[i] = p.y, pz[i] = p.z;
+    }
+    std::vector<SampleForestIndex> cell(count);
+    guideCells(grid, px, py, pz, count, cell);
+    std::size_t wrong = 0, learned = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const int expected = lights.cellOf(Vec3(px[i], py[i], pz[i]));
+      wrong += cell[i] != expected;
+      learned += expected >= 0;
+    }
+    CHECK(wrong == 0);
+    CHECK(learned > count / 40); // (points in learned cells, not only −1: about one in twenty here)
+    // Without a guide every point's cell is −1.
+    guideCells(GuideCellGrid{}, px, py, pz, count, cell);
+    CHECK(std::count(cell.begin(), cell.end(), -1) == std::ptrdiff_t(count));
   });
 }
