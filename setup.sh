@@ -8,6 +8,7 @@
 #                       and xsimd, for tools/simd_bench
 #   ./setup.sh --embree also Embree 3, the yardstick of tools/mesh_bench (cmake --preset embree)
 #   ./setup.sh --mpi    also Open MPI, for the MPI build (cmake --preset mpi; docs/beyond-one-machine.md)
+#   ./setup.sh --opencl also OpenCL and PoCL's CPU device, for chapter 17 (cmake --preset opencl)
 set -euo pipefail
 
 packages=(
@@ -29,7 +30,8 @@ for arg in "$@"; do
     --bench) packages+=(gnuplot-nox fonts-dejavu-core libxsimd-dev) ;; # libxsimd-dev: tools/simd_bench
     --embree) packages+=(libembree-dev) ;;
     --mpi) packages+=(openmpi-bin libopenmpi-dev) ;;
-    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench, --mpi, --embree)" >&2; exit 2 ;;
+    --opencl) packages+=(pocl-opencl-icd ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers clinfo) ;;
+    *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench, --mpi, --embree, --opencl)" >&2; exit 2 ;;
   esac
 done
 

@@ -1082,4 +1082,18 @@ Real Bvh::sahCost(const BvhCosts& costs) const
   return cost;
 }
 
+std::vector<std::uint32_t> Bvh::leafPrimitives(bool triangles) const
+{
+  std::vector<std::uint32_t> list;
+  auto add = [&list](const auto& primitives) {
+    for (const auto& p : primitives)
+      list.push_back(std::uint32_t(p.index) | (p.lastInLeaf ? kLastInLeaf : 0u));
+  };
+  if (triangles)
+    add(triangles_);
+  else
+    add(spheres_);
+  return list;
+}
+
 } // namespace raylife

@@ -222,6 +222,12 @@ public:
   /// The tree the queries walk (up to BvhWideNode::kWidth children per node), root first, every node before
   /// its children (empty for an empty tree).
   const std::vector<BvhWideNode>& wideNodes() const { return wideNodes_; }
+  /// The tree's primitives of one kind in the order its leaves hold them (a leaf child of a wide node indexes this
+  /// list: BvhWideNode::child), by number, with kLastInLeaf set on the last of each leaf. For a walk of the tree
+  /// written elsewhere (chapter 17's kernels). @param triangles The triangles' list; false: the spheres'.
+  std::vector<std::uint32_t> leafPrimitives(bool triangles) const;
+  /// Set in a leafPrimitives entry on the last primitive of its leaf.
+  static constexpr std::uint32_t kLastInLeaf = 0x80000000u;
   /// True when the queries test a node's boxes eight at a time (BvhBuildOptions::eightAtOnce, on a CPU with AVX2).
   bool eightAtOnce() const { return eightAtOnce_; }
   /// Deepest level of the tree (the root is level 1; 0 for an empty tree). Always below kMaxDepth.

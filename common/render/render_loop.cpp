@@ -24,12 +24,12 @@ struct Tile {
   int x0, y0, x1, y1;
 };
 
-std::vector<Tile> makeTiles(int width, int height)
+std::vector<Tile> makeTiles(int width, int height, int tileSize)
 {
   std::vector<Tile> tiles;
-  for (int y = 0; y < height; y += kTileSize)
-    for (int x = 0; x < width; x += kTileSize)
-      tiles.push_back({x, y, std::min(x + kTileSize, width), std::min(y + kTileSize, height)});
+  for (int y = 0; y < height; y += tileSize)
+    for (int x = 0; x < width; x += tileSize)
+      tiles.push_back({x, y, std::min(x + tileSize, width), std::min(y + tileSize, height)});
   return tiles;
 }
 
@@ -137,7 +137,7 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
     throw std::invalid_argument("a range of samples needs a fixed spp that holds it");
   const int width = camera.width(), height = camera.height();
   RenderResult result{Film(settings.beside ? 2 * width : width, height)};
-  const std::vector<Tile> allTiles = makeTiles(width, height);
+  const std::vector<Tile> allTiles = makeTiles(width, height, settings.tileSize > 0 ? settings.tileSize : kTileSize);
   std::vector<Tile> tiles = allTiles; // the work of a batch (adaptive sampling narrows it to the active pixels)
   const int threads = settings.threads > 0 ? settings.threads : omp_get_max_threads();
   // The samples to take here; with a time budget, until the time is spent, but at most this process's share of

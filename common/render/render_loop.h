@@ -149,6 +149,10 @@ struct RenderSettings {
   /// pixel's samples of the batches done). May be empty.
   std::function<void(const Film& film)> preview = {};
   double previewSeconds = 2; ///< See preview (> 0).
+  /// The side of the square tiles the image is cut into, in pixels (≥ 1); 0: the loop's own (16). A device that
+  /// runs many thousands of paths at once (chapter 17) takes larger tiles, so that each call has enough of them.
+  /// The image does not depend on it: each pixel's samples are added in their order whatever the tiles.
+  int tileSize = 0;
 };
 
 /// What a render produced and what it cost.
@@ -235,6 +239,18 @@ public:
       ray.time = sampler.next1D();
     return ray;
   }
+  /// The camera the rays come from.
+  const Camera& camera() const { return camera_; }
+  /// The render's seed (RenderSettings::seed).
+  std::uint64_t seed() const { return seed_; }
+  /// Where in a pixel the samples fall (RenderSettings::pixelSampling).
+  PixelSampling pixelSampling() const { return pixelSampling_; }
+  /// The side of the grid of strata jittered samples fall in (pixelOffset's n); 0: the pixel's PixelSequence.
+  int strata() const { return strata_; }
+  /// Whether each sample draws a point on the lens (RenderSettings::lens).
+  bool lens() const { return lens_; }
+  /// Whether each sample draws a time (RenderSettings::motion).
+  bool motion() const { return motion_; }
 
 private:
   const Camera& camera_;

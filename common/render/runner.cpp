@@ -344,11 +344,16 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
           std::cerr << name << ": warning: no preview: " << e.what() << "\n";
         }
       };
+    std::string device; // what a wavefront ran on (Wavefront::device), for --stats
     RenderResult result = [&] {
       if (makeSplatTrace)
         return ranks.render(scene, camera, settings, (*makeSplatTrace)(scene, options.chapter));
       if (makeWavefront) {
         const Wavefront wavefront = (*makeWavefront)(scene, options.chapter);
+        if (wavefront.threads > 0)
+          settings.threads = wavefront.threads;
+        settings.tileSize = wavefront.tileSize;
+        device = wavefront.device;
         return ranks.render(scene, camera, settings, wavefront.workers, wavefront.size);
       }
       return ranks.render(scene, camera, settings, (*makeTrace)(scene, options.chapter));
@@ -398,8 +403,17 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
            << (settings.threads > 0 ? settings.threads : omp_get_max_threads())
            << ", \"interrupted\": " << (result.interrupted ? "true" : "false")
            << ", \"mean_spp\": " << result.meanSpp << ", \"max_spp\": " << maxSpp << ", \"adaptive\": " << (settings.adaptive ? "true" : "false")
-           << ", \"ranks\": " << ranks.size() << ", \"camera_rays\": " << result.cameraRays
-           << "}\n";
+           << ", \"ranks\": " << ranks.size() << ", \"camera_rays\": " << result.cameraRays;
+      if (!device.empty()) {
+        json << ", \"device\": \"";
+        for (const char c : device) // (a driver's name: printable, but escape what JSON needs)
+          if (c == '"' || c == '\\')
+            json << '\\' << c;
+          else if (static_cast<unsigned char>(c) >= 0x20)
+            json << c;
+        json << '"';
+      }
+      json << "}\n";
       const std::string text = json.str();
       files.emplace_back(options.statsPath, std::vector<unsigned char>(text.begin(), text.end()));
     }
@@ -450,6 +464,8 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
   } catch (const UsageError& e) {
     std::cerr << name << ": " << e.what() << "\n";
     return ranks.finish(2);
+  } catch (const ChapterError& e) {
+    std::cerr << name << ": " << e.what() << "\n";
   } catch (const FilmError& e) {
     std::cerr << name << ": " << e.what() << "\n";
   } catch (const SceneError& e) {

@@ -9,6 +9,7 @@
 
 #include <functional>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -93,7 +94,20 @@ int runSplattingChapter(int argc, char** argv, const ChapterInfo& chapter, const
 struct Wavefront {
   WavefrontWorkers workers; ///< Makes the estimator of each thread.
   std::size_t size = 1;     ///< Most pixel samples per call.
+  /// Host threads that call the estimator (≥ 1); 0: --threads. A device that runs the paths itself (chapter 17)
+  /// takes one.
+  int threads = 0;
+  int tileSize = 0;         ///< RenderSettings::tileSize; 0: the render loop's.
+  std::string device = {};  ///< What the paths run on, for --stats ("device"); empty: the CPU's threads.
 };
+/// A fault a chapter finds in what it needs to render, before any work (chapter 17: no OpenCL device, a kernel the
+/// driver does not build): the runner prints what() after the program's name and exits with status 1, having
+/// written nothing.
+class ChapterError : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
 /// Makes a chapter's wavefront estimator for a loaded scene and its own options' values, as OptionsTraceFactory.
 using WavefrontFactory = std::function<Wavefront(const Scene& scene, const ChapterOptions& options)>;
 /// The same as runChapter, for a chapter whose estimator is a wavefront (chapter 16), made per scene by
