@@ -325,7 +325,9 @@ typedef struct {
 #define kTriangles 0x40000000u
 #define kIndexMask 0x3fffffffu
 #define kLastInLeaf 0x80000000u
+#ifndef kStackSize
 #define kStackSize 192
+#endif
 
 // Everything a query reads of the scene; made once per kernel from its arguments.
 typedef struct {
@@ -416,10 +418,29 @@ float2 traceRay(const Geometry* g, float3 o, float3 d, float tmax, int anyHit)
   while (top > 0) {
     --top;
     if (entry[top] >= best)
-      continue; // found something nearer since this node was pushed
-    __global const WideNode* node = &g->nodes[stack[top]];
+      continue; // found something nearer since this was pushed
+    const uint item = stack[top];
+    if (item & kLeaf) {
+      // A leaf: its primitives lie side by side in their kind's list, the last one marked.
+      const int triangles = (item & kTriangles) != 0;
+      for (uint i = item & kIndexMask;; ++i) {
+        const uint e = triangles ? g->leafTriangles[i] : g->leafSpheres[i];
+        const int p = (int)(e & ~kLastInLeaf);
+        const float t = intersectPrimitive(g, p, o, d, 0.0f, best);
+        if (t >= 0.0f && (t < best || (t == best && p < found))) {
+          best = t;
+          found = p;
+          if (anyHit)
+            return (float2)(best, as_float(found));
+        }
+        if (e & kLastInLeaf)
+          break;
+      }
+      continue;
+    }
+    // A node: the children the ray enters, pushed farthest first so that the nearest comes off the stack next.
+    __global const WideNode* node = &g->nodes[item];
     const int boxes = (int)node->boxes;
-    // The children the ray enters, pushed farthest first so that the nearest comes off the stack next.
     const int base = top;
     for (int k = 0; k < boxes; ++k) {
       const float t = boxEntry(node, k, o, inv, 0.0f, best);
@@ -433,27 +454,6 @@ float2 traceRay(const Geometry* g, float3 o, float3 d, float tmax, int anyHit)
       }
       stack[at] = node->child[k];
       entry[at] = t;
-    }
-    // Leaves are tested at once, nearest last on the stack: pop them here while they are on top.
-    while (top > base && (stack[top - 1] & kLeaf)) {
-      const uint child = stack[--top];
-      if (entry[top] >= best)
-        continue;
-      const uint first = child & kIndexMask;
-      const int triangles = (child & kTriangles) != 0;
-      for (uint i = first;; ++i) {
-        const uint e = triangles ? g->leafTriangles[i] : g->leafSpheres[i];
-        const int p = (int)(e & ~kLastInLeaf);
-        const float t = intersectPrimitive(g, p, o, d, 0.0f, best);
-        if (t >= 0.0f && (t < best || (t == best && p < found))) {
-          best = t;
-          found = p;
-          if (anyHit)
-            return (float2)(best, as_float(found));
-        }
-        if (e & kLastInLeaf)
-          break;
-      }
     }
   }
   return (float2)(best, as_float(found));

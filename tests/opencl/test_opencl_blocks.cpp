@@ -1,0 +1,359 @@
+// Chapter 17's building blocks (blocks.cl) against the C++ library's on random inputs, run on the OpenCL device the
+// chapter would pick (PoCL's CPU device in CI). The device computes in float, the library in double from the same
+// float inputs, so they agree to float's precision, not bit for bit. The tolerances:
+//  - a distance t: within 1e-4 of the distances involved (|origin − centre| + radius, or the ray's length to the
+//    triangle), which is some 800 float ulps;
+//  - barycentrics and directions: within 1e-4 absolute (unit quantities);
+//  - f and pdf: within 2e-3 relative (a glossy lobe raises a float to a power of up to 800);
+//  - hit or miss, sample or none: the same, except within 1e-4 of the boundary where the answer flips (a ray that
+//    grazes a sphere or crosses a triangle's edge; a random number within 1e-4 of the glass's Fresnel reflectance).
+// The box test must be conservative: it never culls a box the exact (double) slab test enters.
+#include "opencl_device.h"
+
+#include "core/frame.h"
+#include "geometry/bvh.h"
+#include "geometry/sphere.h"
+#include "geometry/triangle.h"
+#include "shading/bsdf.h"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <iostream>
+#include <random>
+#include <vector>
+
+using namespace raylife;
+
+namespace {
+
+// The test kernels: each calls one building block for work-item i's inputs.
+const char* kTestKernels = R"(
+__kernel void testSphere(__global const float4* o, __global const float4* d, __global const float4* s,
+                         __global float* t)
+{
+  const uint i = get_global_id(0);
+  t[i] = intersectSphere(o[i].xyz, d[i].xyz, s[i].xyz, s[i].w, 0.0f, INFINITY);
+}
+__kernel void testTriangle(__global const float4* o, __global const float4* d, __global const float4* p,
+                           __global float4* out)
+{
+  const uint i = get_global_id(0);
+  out[i] = intersectTriangle(o[i].xyz, d[i].xyz, p[3 * i].xyz, p[3 * i + 1].xyz, p[3 * i + 2].xyz, 0.0f, INFINITY);
+}
+__kernel void testBox(__global const WideNode* nodes, __global const float4* o, __global const float4* d,
+                      __global float* entry)
+{
+  const uint i = get_global_id(0);
+  entry[i] = boxEntry(&nodes[i], 0, o[i].xyz, 1.0f / d[i].xyz, 0.0f, INFINITY);
+}
+__kernel void testBsdf(__global const float4* materials, __global const float4* wo, __global const float4* u,
+                       __global float4* wi, __global float4* f)
+{
+  const uint i = get_global_id(0);
+  const Material m = materialAt(materials, (int)i);
+  const BsdfSample bs = bsdfSample(&m, wo[i].xyz, u[i].xy, u[i].z);
+  wi[i] = (float4)(bs.wi, bs.pdf);
+  f[i] = (float4)(bs.f, (float)bs.specular);
+}
+)";
+
+// The device, and the building blocks with the test kernels built for it.
+struct TestDevice {
+  opencl::DeviceInfo info = opencl::chooseDevice(-1);
+  cl::Context context{info.device};
+  cl::CommandQueue queue{context, info.device};
+  cl::Program program = opencl::buildProgram(context, info.device, opencl::blocksSource() + kTestKernels);
+
+  template <class T> cl::Buffer input(const std::vector<T>& data)
+  {
+    return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, data.size() * sizeof(T),
+                      const_cast<T*>(data.data()));
+  }
+  cl::Buffer output(std::size_t bytes) { return cl::Buffer(context, CL_MEM_WRITE_ONLY, bytes); }
+  template <class T> std::vector<T> read(const cl::Buffer& b, std::size_t n)
+  {
+    std::vector<T> out(n);
+    queue.enqueueReadBuffer(b, CL_TRUE, 0, n * sizeof(T), out.data());
+    return out;
+  }
+  void run(const char* name, std::size_t n, const std::vector<const cl::Buffer*>& args)
+  {
+    cl::Kernel k(program, name);
+    for (std::size_t a = 0; a < args.size(); ++a)
+      k.setArg(cl_uint(a), *args[a]);
+    queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(n));
+    queue.finish();
+  }
+};
+
+TestDevice& device()
+{
+  static TestDevice d;
+  return d;
+}
+
+constexpr std::size_t kCount = 20000;
+constexpr double kMaxBoundaryShare = 1e-3;
+
+cl_float4 f4(float x, float y, float z, float w = 0) { return cl_float4{{x, y, z, w}}; }
+Vec3 v3(const cl_float4& v) { return Vec3(v.s[0], v.s[1], v.s[2]); }
+
+// A unit vector in float, and the same as a double Vec3.
+cl_float4 unitFloat(std::mt19937& rng)
+{
+  std::normal_distribution<float> g;
+  for (;;) {
+    const float x = g(rng), y = g(rng), z = g(rng);
+    const float l = std::sqrt(x * x + y * y + z * z);
+    if (l > 1e-3f)
+      return f4(x / l, y / l, z / l);
+  }
+}
+
+} // namespace
+
+TEST_CASE("opencl blocks: ray-sphere on the device agrees with intersectSphere on random rays")
+{
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> pos(-10, 10), rad(0.1f, 3), near(-1.5f, 1.5f);
+  std::vector<cl_float4> o(kCount), d(kCount), s(kCount);
+  for (std::size_t i = 0; i < kCount; ++i) {
+    s[i] = f4(pos(rng) / 2, pos(rng) / 2, pos(rng) / 2, rad(rng));
+    o[i] = f4(pos(rng), pos(rng), pos(rng));
+    // Aimed at a point around the sphere, so that about half the rays hit; some start inside.
+    const Vec3 target = v3(s[i]) + Vec3(near(rng), near(rng), near(rng)) * Real(s[i].s[3]);
+    const Vec3 dir = glm::normalize(target - v3(o[i]));
+    d[i] = f4(float(dir.x), float(dir.y), float(dir.z));
+  }
+  TestDevice& dev = device();
+  const cl::Buffer bo = dev.input(o), bd = dev.input(d), bs = dev.input(s), bt = dev.output(kCount * sizeof(float));
+  dev.run("testSphere", kCount, {&bo, &bd, &bs, &bt});
+  const std::vector<float> t = dev.read<float>(bt, kCount);
+  std::size_t hits = 0, boundary = 0;
+  double worst = 0;
+  for (std::size_t i = 0; i < kCount; ++i) {
+    const Vec3 c = v3(s[i]), origin = v3(o[i]), dir = v3(d[i]);
+    const Real r = s[i].s[3];
+    const std::optional<Real> expected = intersectSphere(origin, dir, c, r, Real(0), kInfinity);
+    if (expected.has_value() != (t[i] >= 0)) {
+      // Only a ray that grazes the sphere may differ: its closest approach within 1e-4 radii of the surface.
+      const Vec3 f = origin - c;
+      const Real approach = glm::length(f - glm::dot(f, dir) * dir);
+      INFO("ray " << i << ": closest approach " << approach << ", radius " << r);
+      CHECK(std::abs(approach - r) <= 1e-4 * r);
+      ++boundary;
+      continue;
+    }
+    if (!expected)
+      continue;
+    ++hits;
+    const double error = std::abs(double(t[i]) - *expected) / (glm::length(origin - c) + r);
+    worst = std::max(worst, error);
+    CHECK(error <= 1e-4);
+  }
+  std::cout << "ray-sphere: " << hits << " hits of " << kCount << ", worst relative error of t " << worst << ", "
+            << boundary << " grazing rays answered differently\n";
+  CHECK(hits > kCount / 4);
+  CHECK(double(boundary) <= kMaxBoundaryShare * kCount);
+}
+
+TEST_CASE("opencl blocks: ray-triangle on the device agrees with intersectTriangle on random rays")
+{
+  std::mt19937 rng(18);
+  std::uniform_real_distribution<float> pos(-2, 2), bary(-0.2f, 1.2f), far(3, 8);
+  std::vector<cl_float4> o(kCount), d(kCount), p(3 * kCount);
+  std::vector<Vec3> aimed(kCount);
+  for (std::size_t i = 0; i < kCount; ++i) {
+    // Well-shaped triangles (every altitude at least a tenth of the longest side) seen from at least 6 degrees off
+    // their plane: where the answer is well conditioned, so that float's rounding stays within the tolerances.
+    Vec3 q[3], origin, target;
+    for (;;) {
+      for (Vec3& c : q)
+        c = Vec3(pos(rng), pos(rng), pos(rng));
+      const Real area2 = triangleDoubleArea(q[0], q[1], q[2]);
+      const Real longest = std::max({glm::length(q[1] - q[0]), glm::length(q[2] - q[1]), glm::length(q[0] - q[2])});
+      if (area2 / longest < Real(0.1) * longest)
+        continue;
+      // Aimed at barycentrics in [−0.2, 1.2]: some inside, some outside, some across an edge.
+      const Real b1 = bary(rng), b2 = bary(rng);
+      aimed[i] = Vec3(1 - b1 - b2, b1, b2);
+      target = aimed[i].x * q[0] + aimed[i].y * q[1] + aimed[i].z * q[2];
+      const cl_float4 u = unitFloat(rng);
+      if (std::abs(glm::dot(v3(u), triangleNormal(q[0], q[1], q[2]))) < Real(0.1))
+        continue;
+      origin = target + Real(far(rng)) * v3(u);
+      break;
+    }
+    for (int k = 0; k < 3; ++k)
+      p[3 * i + std::size_t(k)] = f4(float(q[k].x), float(q[k].y), float(q[k].z));
+    o[i] = f4(float(origin.x), float(origin.y), float(origin.z));
+    const Vec3 dir = glm::normalize(target - v3(o[i]));
+    d[i] = f4(float(dir.x), float(dir.y), float(dir.z));
+  }
+  TestDevice& dev = device();
+  const cl::Buffer bo = dev.input(o), bd = dev.input(d), bp = dev.input(p), out = dev.output(kCount * sizeof(cl_float4));
+  dev.run("testTriangle", kCount, {&bo, &bd, &bp, &out});
+  const std::vector<cl_float4> got = dev.read<cl_float4>(out, kCount);
+  std::size_t hits = 0, boundary = 0;
+  double worstT = 0, worstB = 0;
+  for (std::size_t i = 0; i < kCount; ++i) {
+    const auto expected = intersectTriangle(v3(o[i]), v3(d[i]), v3(p[3 * i]), v3(p[3 * i + 1]), v3(p[3 * i + 2]),
+                                            Real(0), kInfinity);
+    if (expected.has_value() != (got[i].s[0] >= 0)) {
+      // Only a ray through (within 1e-4 of) an edge may differ.
+      const Real edge = std::min(std::abs(aimed[i].x), std::min(std::abs(aimed[i].y), std::abs(aimed[i].z)));
+      INFO("ray " << i << ": nearest barycentric " << edge);
+      CHECK(edge <= 1e-4);
+      ++boundary;
+      continue;
+    }
+    if (!expected)
+      continue;
+    ++hits;
+    const double tError = std::abs(double(got[i].s[0]) - expected->t) / expected->t;
+    const double bError = std::max({std::abs(double(got[i].s[1]) - expected->b0),
+                                    std::abs(double(got[i].s[2]) - expected->b1),
+                                    std::abs(double(got[i].s[3]) - expected->b2)});
+    worstT = std::max(worstT, tError), worstB = std::max(worstB, bError);
+    CHECK(tError <= 1e-4);
+    CHECK(bError <= 1e-4);
+  }
+  std::cout << "ray-triangle: " << hits << " hits of " << kCount << ", worst relative error of t " << worstT
+            << ", of the barycentrics " << worstB << ", " << boundary << " rays through an edge answered differently\n";
+  CHECK(hits > kCount / 5);
+  CHECK(double(boundary) <= kMaxBoundaryShare * kCount);
+}
+
+TEST_CASE("opencl blocks: the box test never culls a box the exact slab test enters, and misses what is clearly missed")
+{
+  std::mt19937 rng(19);
+  std::uniform_real_distribution<float> pos(-5, 5), size(0.01f, 3);
+  std::vector<BvhWideNode> nodes(kCount);
+  std::vector<cl_float4> o(kCount), d(kCount);
+  for (std::size_t i = 0; i < kCount; ++i) {
+    BvhWideNode& n = nodes[i];
+    n = BvhWideNode{};
+    n.boxes = 1;
+    for (int a = 0; a < 3; ++a) {
+      const float lo = pos(rng) / 2;
+      n.bounds[a * BvhWideNode::kWidth] = lo;
+      n.bounds[(3 + a) * BvhWideNode::kWidth] = lo + size(rng);
+    }
+    o[i] = f4(pos(rng), pos(rng), pos(rng));
+    d[i] = unitFloat(rng);
+    if (i % 2 == 0) { // half of them aimed at a point near the box: some enter it, some pass close by
+      Vec3 target;
+      for (int a = 0; a < 3; ++a) {
+        const float lo = n.bounds[a * BvhWideNode::kWidth], hi = n.bounds[(3 + a) * BvhWideNode::kWidth];
+        target[a] = lo + (hi - lo) * (std::uniform_real_distribution<float>(-0.3f, 1.3f)(rng));
+      }
+      const Vec3 dir = glm::normalize(target - v3(o[i]));
+      d[i] = f4(float(dir.x), float(dir.y), float(dir.z));
+    }
+    if (i % 10 == 0) // some directions along an axis (1/d infinite in the others)
+      d[i] = f4(0, i % 20 == 0 ? 1.0f : -1.0f, 0);
+  }
+  TestDevice& dev = device();
+  const cl::Buffer bn = dev.input(nodes), bo = dev.input(o), bd = dev.input(d), out = dev.output(kCount * sizeof(float));
+  dev.run("testBox", kCount, {&bn, &bo, &bd, &out});
+  const std::vector<float> entry = dev.read<float>(out, kCount);
+  std::size_t entered = 0, culled = 0, missedClearly = 0, keptWrongly = 0;
+  for (std::size_t i = 0; i < kCount; ++i) {
+    // The exact slab test in double: the interval [tNear, tFar] ∩ [0, ∞) inside all three slabs.
+    double tNear = 0, tFar = INFINITY, gap = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double lo = nodes[i].bound(0, a, 0), hi = nodes[i].bound(1, a, 0), oa = o[i].s[a], da = d[i].s[a];
+      if (da == 0) {
+        if (oa < lo || oa > hi)
+          tNear = INFINITY, gap = INFINITY;
+        continue;
+      }
+      const double t0 = (lo - oa) / da, t1 = (hi - oa) / da;
+      tNear = std::max(tNear, std::min(t0, t1));
+      tFar = std::min(tFar, std::max(t0, t1));
+    }
+    if (gap == 0)
+      gap = tNear - tFar;
+    if (tNear <= tFar) {
+      ++entered;
+      culled += entry[i] == INFINITY;
+    } else if (gap > 1e-3 * (1 + std::abs(tNear))) {
+      ++missedClearly;
+      keptWrongly += entry[i] != INFINITY;
+    }
+  }
+  std::cout << "box test: " << entered << " boxes entered (" << culled << " culled), " << missedClearly
+            << " clearly missed (" << keptWrongly << " kept)\n";
+  CHECK(entered > kCount / 10);
+  CHECK(missedClearly > kCount / 10);
+  CHECK(culled == 0);
+  CHECK(keptWrongly == 0);
+}
+
+TEST_CASE("opencl blocks: BSDF sampling on the device agrees with bsdfSample for every material type")
+{
+  std::mt19937 rng(20);
+  std::uniform_real_distribution<float> unit(0, 1), rough(0.05f, 1), ior(1.1f, 2);
+  std::vector<cl_float4> materials(3 * kCount), wo(kCount), u(kCount);
+  std::vector<Material> cpu(kCount);
+  for (std::size_t i = 0; i < kCount; ++i) {
+    Material& m = cpu[i];
+    m.type = MaterialType(i % 5);
+    m.color = Color(unit(rng), unit(rng), unit(rng));
+    m.ior = ior(rng);
+    m.roughness = m.type == MaterialType::Metal && i % 4 == 0 ? Real(0) : Real(rough(rng)); // smooth metal too
+    const Color c(float(m.color.r), float(m.color.g), float(m.color.b));
+    m.color = c;
+    m.ior = Real(float(m.ior));
+    m.roughness = Real(float(m.roughness));
+    materials[3 * i] = f4(float(c.r), float(c.g), float(c.b), float(int(m.type)));
+    materials[3 * i + 1] = f4(0, 0, 0, float(m.ior));
+    materials[3 * i + 2] = f4(float(m.roughness), 0, 0);
+    wo[i] = unitFloat(rng);
+    u[i] = f4(unit(rng), unit(rng), unit(rng));
+  }
+  TestDevice& dev = device();
+  const cl::Buffer bm = dev.input(materials), bwo = dev.input(wo), bu = dev.input(u);
+  const cl::Buffer bwi = dev.output(kCount * sizeof(cl_float4)), bf = dev.output(kCount * sizeof(cl_float4));
+  dev.run("testBsdf", kCount, {&bm, &bwo, &bu, &bwi, &bf});
+  const std::vector<cl_float4> wi = dev.read<cl_float4>(bwi, kCount), f = dev.read<cl_float4>(bf, kCount);
+  std::size_t samples = 0, boundary = 0;
+  double worstDirection = 0, worstValue = 0;
+  for (std::size_t i = 0; i < kCount; ++i) {
+    const Vec3 w = v3(wo[i]);
+    const std::optional<BsdfSample> expected =
+        bsdfSample(cpu[i], w, Vec2(u[i].s[0], u[i].s[1]), Real(u[i].s[2]));
+    const bool got = wi[i].s[3] > 0;
+    // The glass's choice of lobe within 1e-4 of its reflectance F may go either way in float.
+    if (cpu[i].type == MaterialType::Glass && std::abs(double(u[i].s[2]) - fresnelDielectric(w.z, cpu[i].ior)) <= 1e-4) {
+      ++boundary;
+      continue;
+    }
+    if (expected.has_value() != got) {
+      // Otherwise only a direction at the horizon may differ.
+      const bool horizon = got ? std::abs(wi[i].s[2]) <= 1e-3 : expected && std::abs(expected->wi.z) <= 1e-3;
+      INFO("sample " << i << " of a " << materialTypeName(cpu[i].type));
+      CHECK(horizon);
+      ++boundary;
+      continue;
+    }
+    if (!expected)
+      continue;
+    ++samples;
+    INFO("sample " << i << " of a " << materialTypeName(cpu[i].type));
+    const double direction = glm::length(v3(wi[i]) - expected->wi);
+    const double pdf = std::abs(double(wi[i].s[3]) - expected->pdf) / expected->pdf;
+    double value = pdf;
+    for (int c = 0; c < 3; ++c)
+      value = std::max(value, std::abs(double(f[i].s[c]) - expected->f[c]) / std::max(Real(1e-6), expected->f[c]));
+    worstDirection = std::max(worstDirection, direction), worstValue = std::max(worstValue, value);
+    CHECK(direction <= 1e-4);
+    CHECK(value <= 2e-3);
+    CHECK((f[i].s[3] != 0) == expected->specular);
+  }
+  std::cout << "BSDF sampling: " << samples << " samples of " << kCount << ", worst direction error " << worstDirection
+            << ", worst relative error of f and pdf " << worstValue << ", " << boundary << " at a boundary\n";
+  CHECK(samples > kCount / 2);
+  CHECK(double(boundary) <= kMaxBoundaryShare * kCount);
+}

@@ -1,0 +1,139 @@
+// Chapter 17 as students run it, on the OpenCL device it picks (PoCL's CPU device in CI): it renders chapter 8's
+// estimator, so it agrees with chapters 8 and 16 by the z-test (float on the device, and lights chosen by power with
+// triangles sampled by area, so not bit for bit); it passes the analytic scenes; a device renders the same image
+// every time; and what goes wrong (no device, a bad --device, kernels that do not build) it says, writing nothing.
+#include "../analytic/run_chapter.h"
+#include "../lights/compare_renders.h"
+
+#include "scene/scene.h"
+
+#include <catch2/catch.hpp>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+#include <unistd.h>
+
+using namespace raylife;
+using namespace raylife::test;
+
+namespace {
+
+const std::string kScenes = RAYLIFE_SCENES;
+
+std::string readText(const std::string& path)
+{
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+// Runs step17 with `args` (and `environment` before it), and returns its exit status and standard error.
+std::pair<int, std::string> runStep17(const std::string& args, const std::string& environment = "")
+{
+  const std::string err = "/tmp/raylife_opencl_" + std::to_string(::getpid()) + ".err";
+  const std::string command = environment + " '" RAYLIFE_STEP17 "' " + args + " 2> '" + err + "'";
+  const int status = std::system(command.c_str());
+  const std::string text = readText(err);
+  std::remove(err.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, text};
+}
+
+} // namespace
+
+TEST_CASE("opencl: chapter 17 and chapters 8 and 16 render the same image by the z-test")
+{
+  // The Cornell box (spheres in a flat list), smallpt's room (walls kept out of the tree), the MIS scene (glossy
+  // plates under four lamps), and the original Cornell box (triangles and a triangle lamp, through the tree).
+  for (const char* scene : {"cornell.json", "smallpt.json", "mis.json", "cornell_original.json"}) {
+    INFO(scene);
+    const std::string size = "--width 48 --height 36 --spp 128 ";
+    const ChapterRender c17 = run(RAYLIFE_STEP17, kScenes + "/" + scene, size + "--seed 71", std::string("z17") + scene);
+    const ChapterRender c8 = run(RAYLIFE_STEP08, kScenes + "/" + scene, size + "--seed 81", std::string("z8") + scene);
+    CHECK(compare(c17.mean, c17.variance, c8.mean, c8.variance, std::string(scene) + ": chapter 17 against 8")
+              .passed());
+    if (std::string(scene) == "smallpt.json") {
+      const ChapterRender c16 =
+          run(RAYLIFE_STEP16, kScenes + "/" + scene, size + "--seed 91", std::string("z16") + scene);
+      CHECK(compare(c17.mean, c17.variance, c16.mean, c16.variance, std::string(scene) + ": chapter 17 against 16")
+                .passed());
+    }
+  }
+}
+
+TEST_CASE("opencl: the analytic scenes (a white furnace, the inside of an emitting sphere) come out right")
+{
+  // Diffuse spheres of albedo 1 under a sky of radiance 1: 1 everywhere.
+  const ChapterRender furnace = run(RAYLIFE_STEP17, kScenes + "/analytic/furnace.json", "--spp 64 --seed 1", "af");
+  Image ones(furnace.mean.width, furnace.mean.height), none(furnace.mean.width, furnace.mean.height);
+  for (float& v : ones.pixels)
+    v = 1;
+  CHECK(compare(furnace.mean, furnace.variance, ones, none, "white furnace").passed());
+  // Inside a closed sphere of emission Le and albedo ρ: Le/(1 − ρ) everywhere.
+  const std::string inside = kScenes + "/analytic/inside_sphere.json";
+  const Scene s = loadScene(inside);
+  const Color expected = s.materials[0].emission / (Color(1) - s.materials[0].color);
+  const ChapterRender r = run(RAYLIFE_STEP17, inside, "--spp 128 --seed 3", "ai");
+  Image answer(r.mean.width, r.mean.height), zero(r.mean.width, r.mean.height);
+  for (int y = 0; y < answer.height; ++y)
+    for (int x = 0; x < answer.width; ++x)
+      for (int c = 0; c < 3; ++c)
+        answer.at(x, y, c) = float(expected[c]);
+  CHECK(compare(r.mean, r.variance, answer, zero, "inside an emitting sphere").passed());
+  // And a control: the same test fails an answer 5% too bright.
+  for (float& v : answer.pixels)
+    v *= 1.05f;
+  CHECK_FALSE(compare(r.mean, r.variance, answer, zero, "inside, 5% too bright (control)").passed());
+}
+
+TEST_CASE("opencl: the same image on two runs, and --stats names the device")
+{
+  const std::string a = "/tmp/raylife_opencl_" + std::to_string(::getpid()) + "_a.pfm";
+  const std::string b = "/tmp/raylife_opencl_" + std::to_string(::getpid()) + "_b.pfm";
+  const std::string stats = "/tmp/raylife_opencl_" + std::to_string(::getpid()) + "_stats.json";
+  const std::string args = "'" + kScenes + "/cornell_original.json' --width 40 --height 30 --spp 8 --seed 4 --quiet";
+  REQUIRE(runStep17(args + " -o '" + a + "' --stats '" + stats + "'").first == 0);
+  REQUIRE(runStep17(args + " -o '" + b + "' --wavefront 777").first == 0);
+  const std::string first = readText(a);
+  CHECK(first.size() > 40 * 30 * 12);
+  CHECK(first == readText(b));
+  CHECK(readText(stats).find("\"device\": \"") != std::string::npos);
+  for (const std::string& f : {a, b, stats})
+    std::remove(f.c_str());
+}
+
+TEST_CASE("opencl: no device, a bad --device, kernels that do not build: one clear message, its status, no image")
+{
+  const std::string out = "/tmp/raylife_opencl_" + std::to_string(::getpid()) + "_never.png";
+  const std::string args = "'" + kScenes + "/cornell.json' --width 8 --height 6 --spp 1 -o '" + out + "'";
+  // --device past the last: a usage error (2), naming --list-devices.
+  const auto [badStatus, badMessage] = runStep17(args + " --device 999");
+  CHECK(badStatus == 2);
+  CHECK(badMessage.find("--device 999") != std::string::npos);
+  CHECK(badMessage.find("--list-devices") != std::string::npos);
+  // No OpenCL platform (the ICD loader pointed at an empty folder): what to install, status 1.
+  const std::string empty = "/tmp/raylife_opencl_no_icd_" + std::to_string(::getpid());
+  std::filesystem::create_directories(empty);
+  const auto [noStatus, noMessage] = runStep17(args, "OCL_ICD_VENDORS='" + empty + "'");
+  CHECK(noStatus == 1);
+  CHECK(noMessage.find("no OpenCL device") != std::string::npos);
+  CHECK(noMessage.find("./setup.sh --opencl") != std::string::npos);
+  const auto [listStatus, listMessage] = runStep17("--list-devices", "OCL_ICD_VENDORS='" + empty + "'");
+  CHECK(listStatus == 1);
+  CHECK(listMessage.find("no OpenCL device") != std::string::npos);
+  std::filesystem::remove_all(empty);
+  // Kernels that do not compile (the name of a type they use defined away): the driver's build log, status 1.
+  const auto [buildStatus, buildMessage] = runStep17(args, "RAYLIFE_OPENCL_OPTIONS='-DRng='");
+  CHECK(buildStatus == 1);
+  CHECK(buildMessage.find("the kernels did not build") != std::string::npos);
+  CHECK(buildMessage.find("build log") != std::string::npos);
+  CHECK(buildMessage.find("error") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(out));
+  // And --list-devices lists this machine's device.
+  const auto [status, text] = runStep17("--list-devices > /dev/null");
+  CHECK(status == 0);
+}
