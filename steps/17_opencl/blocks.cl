@@ -354,18 +354,15 @@ int materialOf(const Geometry* g, int p)
 float boxEntry(__global const WideNode* node, int k, float3 o, float3 inv, float tmin, float tmax)
 {
   const float widen = gammaF(32) + gammaF(8);
-  float tNear = tmin, tFar = tmax;
-  for (int axis = 0; axis < 3; ++axis) {
-    const float oa = component(o, axis), ia = component(inv, axis);
-    float t0 = (node->bounds[axis * 8 + k] - oa) * ia;
-    float t1 = (node->bounds[(3 + axis) * 8 + k] - oa) * ia;
-    if (isnan(t0) || isnan(t1)) {
-      t0 = -INFINITY;
-      t1 = INFINITY;
-    }
-    tNear = fmax(tNear, fmin(t0, t1) * (1.0f - widen));
-    tFar = fmin(tFar, fmax(t0, t1) * (1.0f + widen));
-  }
+  __global const float* b = node->bounds;
+  const float3 lo = (float3)(b[k], b[8 + k], b[16 + k]), hi = (float3)(b[24 + k], b[32 + k], b[40 + k]);
+  float3 t0 = (lo - o) * inv, t1 = (hi - o) * inv;
+  const int3 undefined = isnan(t0) | isnan(t1); // 0·∞: the origin on a face, the ray along it
+  t0 = select(t0, (float3)(-INFINITY), undefined);
+  t1 = select(t1, (float3)(INFINITY), undefined);
+  const float3 near = fmin(t0, t1) * (1.0f - widen), far = fmax(t0, t1) * (1.0f + widen);
+  const float tNear = fmax(tmin, fmax(near.x, fmax(near.y, near.z)));
+  const float tFar = fmin(tmax, fmin(far.x, fmin(far.y, far.z)));
   return tNear <= tFar ? tNear : INFINITY;
 }
 
