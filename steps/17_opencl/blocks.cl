@@ -325,9 +325,9 @@ typedef struct {
 #define kTriangles 0x40000000u
 #define kIndexMask 0x3fffffffu
 #define kLastInLeaf 0x80000000u
-#ifndef kStackSize
-#define kStackSize 192
-#endif
+// The walk's stack: a node popped pushes at most 8 children, so the stack grows by at most 7 a level, and the tree is
+// at most 64 levels deep (Bvh::kMaxDepth; the host checks it): 1 + 7·64 entries are always enough.
+#define kStackSize 449
 
 // Everything a query reads of the scene; made once per kernel from its arguments.
 typedef struct {
@@ -441,7 +441,7 @@ float2 traceRay(const Geometry* g, float3 o, float3 d, float tmax, int anyHit)
     const int base = top;
     for (int k = 0; k < boxes; ++k) {
       const float t = boxEntry(node, k, o, inv, 0.0f, best);
-      if (t == INFINITY || top >= kStackSize)
+      if (t == INFINITY)
         continue;
       int at = top++;
       while (at > base && entry[at - 1] < t) {

@@ -33,6 +33,9 @@ using namespace raylife;
 
 namespace {
 
+// The entries of the tree walk's stack in blocks.cl (kStackSize there).
+constexpr int kStackSize = 449;
+
 cl_float4 float4(const Vec3& v, Real w = 0) { return cl_float4{{float(v.x), float(v.y), float(v.z), float(w)}}; }
 
 // A read-only buffer holding `data` (a buffer may not be empty: one zero element stands in for none).
@@ -74,6 +77,9 @@ struct DeviceScene {
     // The tree the CPU walks (none for a short list: the kernels then loop over every primitive).
     const Bvh& tree = scene.accelerator;
     const bool useTree = scene.usesAccelerator();
+    if (useTree && 1 + 7 * tree.depth() > kStackSize)
+      throw ChapterError("chapter 9's tree is " + std::to_string(tree.depth()) + " levels deep, more than the kernels' "
+                         "stack holds (kStackSize in blocks.cl)");
     std::vector<BvhWideNode> nodeData = useTree ? tree.wideNodes() : std::vector<BvhWideNode>{};
     const std::vector<int> outsideData = useTree ? tree.outsidePrimitives() : std::vector<int>{};
     std::vector<cl_uint> leafSphereData = useTree ? tree.leafPrimitives(false) : std::vector<cl_uint>{};
