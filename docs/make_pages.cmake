@@ -9,7 +9,8 @@
 # "# Chapter N — TITLE {#stepNN_name}" with the table's title.
 #  - the scene-format page's table of what each chapter reads (@RAYLIFE_CHAPTER_READS@), from each chapter's
 #    `--help` ("reads from a scene: ..."), when BIN_DIR holds the chapters' programs.
-#   cmake -DSOURCE=<docs dir> -DSTEPS=<steps dir> -DOUT=<dir for the pages> [-DBIN_DIR=<dir>] -P make_pages.cmake
+#   cmake -DSOURCE=<docs dir> -DSTEPS=<steps dir> -DOUT=<dir for the pages> [-DBIN_DIR=<dir>] [-DABSENT=<binaries>]
+#         -P make_pages.cmake   (ABSENT: optional chapters the build does not make, listed without their --help)
 cmake_policy(VERSION 3.20)
 foreach(var SOURCE STEPS OUT)
   if(NOT DEFINED ${var})
@@ -112,6 +113,11 @@ foreach(i RANGE 1 ${count})
   if(NOT DEFINED BIN_DIR)
     set(reads "(The table of what each chapter reads is made by the docs build, from the chapters' programs.)")
     break()
+  endif()
+  if(binary_${i} IN_LIST ABSENT)
+    # An optional chapter this build does not make (chapter 17 without RAYLIFE_OPENCL): its page says what it reads.
+    string(APPEND reads "| ${number_${i}}. @ref ${binary_${i}} \"${title_${i}}\" | (an optional build's: see its page) |\n")
+    continue()
   endif()
   execute_process(COMMAND ${BIN_DIR}/${binary_${i}} --help OUTPUT_VARIABLE help RESULT_VARIABLE status)
   if(NOT status EQUAL 0 OR NOT help MATCHES "\nreads from a scene: ([^\n]+)\n")

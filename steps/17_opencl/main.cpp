@@ -19,13 +19,12 @@
 #include "render/runner.h"
 #include "scene/scene_plan.h"
 
-#include <algorithm>
-#include <cstdlib>
 #include <cstdint>
-#include <cstring>
+#include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <span>
+#include <string>
 #include <string_view>
 #include <vector>
 
