@@ -48,18 +48,28 @@ std::pair<int, std::string> runStep17(const std::string& args, const std::string
 TEST_CASE("opencl: chapter 17 and chapters 8 and 16 render the same image by the z-test")
 {
   // The Cornell box (spheres in a flat list), smallpt's room (walls kept out of the tree), the MIS scene (glossy
-  // plates under four lamps), and the original Cornell box (triangles and a triangle lamp, through the tree).
-  for (const char* scene : {"cornell.json", "smallpt.json", "mis.json", "cornell_original.json"}) {
+  // plates under four lamps), the original Cornell box (triangles and a triangle lamp, through the tree), chapter
+  // 10's model (a mesh file, smooth normals) and the glossy Cornell box.
+  for (const char* scene : {"cornell.json", "smallpt.json", "mis.json", "cornell_original.json", "meshes.json",
+                            "cornell_glossy.json"}) {
     INFO(scene);
     const std::string size = "--width 48 --height 36 --spp 128 ";
+    // smallpt's walls are spheres of radius 10⁵, whose hit points float puts only within about 3 cm: near the rim
+    // where the lamp pokes through the ceiling the offset rays see a little more of it, and chapter 17's image mean
+    // is 1.6% above chapter 16's (measured at 8192 spp; docs/measurements/17_opencl.md). That much is allowed there
+    // (the image-mean test's `systematic`); every pixel is still held to the z-test.
+    const bool smallpt = std::string(scene) == "smallpt.json";
+    const double systematic = smallpt ? 0.02 : 0;
     const ChapterRender c17 = run(RAYLIFE_STEP17, kScenes + "/" + scene, size + "--seed 71", std::string("z17") + scene);
     const ChapterRender c8 = run(RAYLIFE_STEP08, kScenes + "/" + scene, size + "--seed 81", std::string("z8") + scene);
-    CHECK(compare(c17.mean, c17.variance, c8.mean, c8.variance, std::string(scene) + ": chapter 17 against 8")
+    CHECK(compare(c17.mean, c17.variance, c8.mean, c8.variance, std::string(scene) + ": chapter 17 against 8",
+                  nullptr, 1, systematic)
               .passed());
-    if (std::string(scene) == "smallpt.json") {
+    if (smallpt) {
       const ChapterRender c16 =
           run(RAYLIFE_STEP16, kScenes + "/" + scene, size + "--seed 91", std::string("z16") + scene);
-      CHECK(compare(c17.mean, c17.variance, c16.mean, c16.variance, std::string(scene) + ": chapter 17 against 16")
+      CHECK(compare(c17.mean, c17.variance, c16.mean, c16.variance, std::string(scene) + ": chapter 17 against 16",
+                    nullptr, 1, systematic)
                 .passed());
     }
   }
