@@ -187,7 +187,7 @@ public:
                   std::size_t capacity)
       : context_(device.device), queue_(context_, device.device),
         program_(opencl::buildProgram(context_, device.device, opencl::kernelSource())),
-        scene_(context_, scene, sampleLights), capacity_(capacity), power_(heuristic == MisHeuristic::Power),
+        scene_(context_, scene, sampleLights), power_(heuristic == MisHeuristic::Power),
         paths_{PathBuffers(context_, capacity), PathBuffers(context_, capacity)},
         keys_(context_, CL_MEM_READ_ONLY, capacity * sizeof(cl_int4)),
         hitT_(context_, CL_MEM_READ_WRITE, capacity * sizeof(cl_float)),
@@ -302,8 +302,6 @@ public:
   }
   /// [wavefront]
 
-  std::size_t capacity() const { return capacity_; }
-
 private:
   // One work-item a path, in work-groups of a fixed size: the kernels ignore the items past n. (Left to the driver,
   // the group size follows n, and PoCL compiles the kernel again for every new size: minutes of compiling.)
@@ -318,11 +316,10 @@ private:
   cl::CommandQueue queue_;
   cl::Program program_;
   DeviceScene scene_;
-  std::size_t capacity_;
   bool power_;
   PathBuffers paths_[2]; // this round's paths and the next round's, in turn
   cl::Buffer keys_, hitT_, hitPrimitive_;
-  PathBuffers shadows_; // (origin with tmax, direction, slot)
+  PathBuffers shadows_; // the shadow rays: origin (and tmax), direction, slot (its other fields unused)
   cl::Buffer shadowLight_, blocked_, counts_, radiance_;
   cl::Kernel generate_, extend_, shade_, connect_, accumulate_;
   std::vector<cl_int4> hostKeys_;
@@ -372,7 +369,7 @@ int main(int argc, char** argv)
                                          .help = "list every OpenCL platform's devices, and render nothing"},
                                         {.name = "--wavefront",
                                          .kind = OptionKind::Integer,
-                                         .help = "most paths in flight on the device at once (about 250 bytes of "
+                                         .help = "most paths in flight on the device at once (about 300 bytes of "
                                                  "its memory each)",
                                          .defaultValue = "262144",
                                          .min = 1,
