@@ -61,6 +61,12 @@ std::string describeIgnored(const Scene& scene, unsigned uses)
     parts.push_back("the ambient term");
   if (!(uses & kUsesBackground) && scene.background != Color(0))
     parts.push_back("the background");
+  if (!(uses & kUsesEnvironment) && scene.environment)
+    parts.push_back("the environment map (a ray that leaves the scene sees black)");
+  if (!(uses & kUsesTextures) && std::any_of(scene.materials.begin(), scene.materials.end(), [](const Material& m) {
+        return m.colorTexture || m.emissionTexture;
+      }))
+    parts.push_back("textures (each is shaded as its mean colour)");
   if (uses & kUsesSpheres) {
     std::size_t emissive = 0, asDiffuse = 0;
     std::vector<bool> used(scene.materials.size(), false);

@@ -58,6 +58,7 @@ LightSampler::LightSampler(const Scene& scene) : scene_(scene)
     lights_.clear();
     return;
   }
+  totalPower_ = total;
   Real running = 0;
   for (std::size_t k = 0; k < power.size(); ++k) {
     running += power[k];

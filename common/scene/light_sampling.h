@@ -381,6 +381,10 @@ public:
   /// True when the scene has no light to sample (only the background, if anything, lights it).
   bool empty() const { return cdf_.empty(); }
 
+  /// The sum of the lights' power estimates (the luminance of Φ, as the choice weighs them; 0 when empty): what a
+  /// chapter weighs a light of its own against (chapter 14's environment map).
+  Real totalPower() const { return totalPower_; }
+
   /// One light, chosen with probability ∝ power by `uLight`, and a direction towards it from `ref`, the shaded
   /// point on a surface: uniform in the emissive sphere's cone (sampleSphereCone), in the emissive triangle's
   /// solid angle (sampleTriangleLight), or the point light itself.
@@ -455,6 +459,7 @@ private:
   std::vector<int> lights_;   // ≥ 0: an emitter's primitive number; < 0: point light −(index + 1)
   std::vector<Real> cdf_;     // cumulative probability of lights_[0..i], the last exactly 1
   std::vector<std::pair<int, Real>> emitters_; // (primitive, choice probability) of each emitter, by primitive
+  Real totalPower_ = 0;
 
   // The guide (empty without one): a grid of cells over the pre-pass's points, and per cell and light (index
   // cell × lights_.size() + k) the cumulative choice probability and the learned density in a sphere's cone.

@@ -19,6 +19,7 @@
 #endif
 
 #include <algorithm>
+#include <cmath>
 #include <cctype>
 #include <cerrno>
 #include <csignal>
@@ -143,11 +144,12 @@ void checkPlyHeader(std::span<const char> bytes, const std::string& name)
 void weld(MeshData& data)
 {
   const std::size_t n = data.positions.size();
-  const bool normals = !data.normals.empty();
+  const bool normals = !data.normals.empty(), uvs = !data.uvs.empty();
   auto key = [&](std::uint32_t v) {
     const Vec3& p = data.positions[v];
     const Vec3 nrm = normals ? data.normals[v] : Vec3(0);
-    return std::array<Real, 6>{p.x, p.y, p.z, nrm.x, nrm.y, nrm.z};
+    const Vec2 uv = uvs ? data.uvs[v] : Vec2(0);
+    return std::array<Real, 8>{p.x, p.y, p.z, nrm.x, nrm.y, nrm.z, uv.x, uv.y};
   };
   std::vector<std::uint32_t> order(n);
   for (std::size_t v = 0; v < n; ++v)
@@ -155,11 +157,14 @@ void weld(MeshData& data)
   std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
   std::vector<std::uint32_t> newIndex(n);
   std::vector<Vec3> positions, vertexNormals;
+  std::vector<Vec2> vertexUvs;
   for (std::size_t k = 0; k < n; ++k) {
     if (k == 0 || key(order[k]) != key(order[k - 1])) {
       positions.push_back(data.positions[order[k]]);
       if (normals)
         vertexNormals.push_back(data.normals[order[k]]);
+      if (uvs)
+        vertexUvs.push_back(data.uvs[order[k]]);
     }
     newIndex[order[k]] = std::uint32_t(positions.size() - 1);
   }
@@ -168,6 +173,7 @@ void weld(MeshData& data)
       v = newIndex[v];
   data.positions = std::move(positions);
   data.normals = std::move(vertexNormals);
+  data.uvs = std::move(vertexUvs);
 }
 // [weld]
 
@@ -188,6 +194,7 @@ void weld(MeshData& data)
 enum Tag : std::uint32_t { kMeshTag = 0x4d455348u, kErrorTag = 0x4552524fu, kEndTag = 0x454e4421u };
 struct WireMesh {
   std::uint32_t primitiveTypes, vertices, hasNormals, faces;
+  std::uint32_t hasUvs; // texture coordinates follow the normals (as aiVector3D; only x and y are used)
 };
 struct WireFace {
   std::uint32_t count;    // the face's number of corners
@@ -269,7 +276,8 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
     }
     const bool normals = mesh.mNormals != nullptr;
     out.put(kMeshTag);
-    out.put(WireMesh{mesh.mPrimitiveTypes, mesh.mNumVertices, normals ? 1u : 0u, mesh.mNumFaces});
+    const bool uvs = mesh.mTextureCoords[0] != nullptr;
+    out.put(WireMesh{mesh.mPrimitiveTypes, mesh.mNumVertices, normals ? 1u : 0u, mesh.mNumFaces, uvs ? 1u : 0u});
     // (In arrays of a few thousand: a million triangles take tens of milliseconds.)
     std::vector<aiVector3D> vectors;
     auto sendVectors = [&](const aiVector3D* from, const aiMatrix3x3* linear, const aiMatrix4x4* affine) {
@@ -284,6 +292,12 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
     sendVectors(mesh.mVertices, nullptr, &transform);
     if (normals)
       sendVectors(mesh.mNormals, &normalTransform, nullptr);
+    if (uvs)
+      for (std::size_t v = 0; v < mesh.mNumVertices; v += kChunk) {
+        vectors.assign(mesh.mTextureCoords[0] + v,
+                       mesh.mTextureCoords[0] + std::min<std::size_t>(mesh.mNumVertices, v + kChunk));
+        out.put(vectors.data(), vectors.size() * sizeof(aiVector3D));
+      }
     std::vector<WireFace> wire;
     for (std::size_t f = 0; f < mesh.mNumFaces; f += kChunk) {
       wire.clear();
@@ -314,7 +328,7 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
 // The child: Assimp on the bytes, the stream to `fd`, and _exit (no destructor, no atexit handler: nothing of the
 // parent's is flushed or freed twice, LeakSanitizer's check at exit does not run, and the library's scene is not
 // freed, which takes long on a big model and gains nothing).
-[[noreturn]] void runReader(int fd, std::span<const char> bytes, MeshFormat format) noexcept
+[[noreturn]] void runReader(int fd, std::span<const char> bytes, MeshFormat format, bool uvs) noexcept
 {
   // The faults must end this process, by their signal: a handler inherited from the parent (a sanitizer's, the
   // fuzzer's) would otherwise run here. So must a stop signal the parent catches (a chapter's Ctrl-C); one it ignores
@@ -346,7 +360,8 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
     auto* importer = new Assimp::Importer;
     // Keep positions and normals only (less to hold; materials and textures are the scene's business).
     importer->SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
-                                 aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS | aiComponent_TEXCOORDS |
+                                 aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
+                                     (uvs ? 0u : unsigned(aiComponent_TEXCOORDS)) |
                                      aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS | aiComponent_TEXTURES |
                                      aiComponent_LIGHTS | aiComponent_CAMERAS | aiComponent_MATERIALS);
     // (Not Assimp's JoinIdenticalVertices: on a million-triangle PLY it took 15 s and 300 MB more than the reading
@@ -546,7 +561,7 @@ void receive(PipeReader& in, MeshData& data, std::size_t fileBytes, const std::s
     if (!in.get(&mesh, sizeof mesh))
       throw StreamFault{false, "cut short"};
     ++meshes;
-    if (mesh.hasNormals > 1 || data.positions.size() + std::uint64_t(mesh.vertices) > limit ||
+    if (mesh.hasNormals > 1 || mesh.hasUvs > 1 || data.positions.size() + std::uint64_t(mesh.vertices) > limit ||
         faces + mesh.faces > limit || meshes > limit)
       throw garbled("a mesh larger than the file can hold");
     faces += mesh.faces;
@@ -566,6 +581,16 @@ void receive(PipeReader& in, MeshData& data, std::size_t fileBytes, const std::s
       data.normals.reserve(data.positions.size());
       receiveArray(in, mesh.vertices, vectors, [&](const aiVector3D& n, std::uint64_t) {
         data.normals.emplace_back(n.x, n.y, n.z);
+      });
+    }
+    // (Likewise a file whose parts do not all have texture coordinates has none.)
+    if (mesh.hasUvs) {
+      data.uvs.reserve(data.positions.size());
+      receiveArray(in, mesh.vertices, vectors, [&](const aiVector3D& t, std::uint64_t v) {
+        if (!std::isfinite(t.x) || !std::isfinite(t.y))
+          throw MeshError(name + ": the texture coordinates of vertex " + std::to_string(first + v + 1) +
+                          " are not finite (NaN or infinite)");
+        data.uvs.emplace_back(t.x, t.y);
       });
     }
     data.triangles.reserve(data.triangles.size() + std::min<std::size_t>(mesh.faces, std::size_t(1) << 20));
@@ -588,7 +613,7 @@ void receive(PipeReader& in, MeshData& data, std::size_t fileBytes, const std::s
 }
 
 // Assimp on `bytes`, in a child process (see above), and its answer checked. @throws MeshError.
-MeshData readInChild(std::span<const char> bytes, MeshFormat format, const std::string& name)
+MeshData readInChild(std::span<const char> bytes, MeshFormat format, const std::string& name, bool uvs)
 {
   const std::string formatName = format == MeshFormat::Obj ? "OBJ" : "PLY";
   int fds[2];
@@ -606,7 +631,7 @@ MeshData readInChild(std::span<const char> bytes, MeshFormat format, const std::
   }
   if (pid == 0) {
     ::close(fds[0]);
-    runReader(fds[1], bytes, format);
+    runReader(fds[1], bytes, format, uvs);
   }
   ::close(fds[1]);
   ReaderProcess child(pid, fds[0]);
@@ -642,7 +667,7 @@ MeshFormat meshFormatOf(const std::string& path)
                   "': raylife reads .obj and .ply files");
 }
 
-MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std::string& name)
+MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std::string& name, bool uvs)
 {
   if (bytes.empty())
     throw MeshError(name + ": the file is empty");
@@ -657,7 +682,9 @@ MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std
         throw MeshError(name + ": cannot read it as OBJ: a control character (byte " + std::to_string(int(c)) +
                         ") at byte " + std::to_string(i) + ": OBJ is text");
     }
-  MeshData data = readInChild(bytes, format, name);
+  MeshData data = readInChild(bytes, format, name, uvs);
+  if (data.uvs.size() != data.positions.size())
+    data.uvs.clear(); // some parts had texture coordinates and some did not: none
   if (data.normals.size() != data.positions.size() ||
       !std::all_of(data.normals.begin(), data.normals.end(), [](const Vec3& n) { return isFinite(n); }))
     data.normals.clear(); // some parts had normals and some did not, or bad ones: none (smooth shading computes them)
@@ -671,7 +698,7 @@ MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std
   return data;
 }
 
-MeshData readMeshFile(const std::string& path)
+MeshData readMeshFile(const std::string& path, bool uvs)
 {
   const MeshFormat format = meshFormatOf(path);
   namespace fs = std::filesystem;
@@ -690,7 +717,7 @@ MeshData readMeshFile(const std::string& path)
   }
   if (in.bad())
     throw MeshError(path + ": cannot read the mesh file: " + std::strerror(errno));
-  MeshData data = parseMeshData(bytes, format, path);
+  MeshData data = parseMeshData(bytes, format, path, uvs);
   std::vector<char>().swap(bytes);
 #ifdef __GLIBC__
   // The file's bytes and Assimp's scene are freed but glibc keeps much of it; hand it back, so that the memory a

@@ -29,6 +29,9 @@ struct MeshData {
   /// and drops the file's normals if any is zero or not finite). Empty when only some of the file's parts have them.
   std::vector<Vec3> normals;
   std::vector<std::array<std::uint32_t, 3>> triangles;  ///< Counter-clockwise from the front; every index in range.
+  /// Empty, or one (u, v) per position (chapter 14: OBJ `vt`, PLY `u v` or `s t`; v = 0 the image's bottom row),
+  /// finite; read only when asked for. Empty when only some of the file's parts have them.
+  std::vector<Vec2> uvs;
 };
 
 /// A fault in a mesh file. what() is the whole message: "FILE: what is wrong" (with the line where the
@@ -58,10 +61,12 @@ MeshFormat meshFormatOf(const std::string& path);
 /// naming the file and the fault: unreadable, empty, not OBJ or PLY, malformed (the library's message), an index out
 /// of range, a vertex that is not finite, points or lines (raylife renders triangles), no triangle at all, or a
 /// reader that crashed on it or could not be started.
-MeshData readMeshFile(const std::string& path);
+/// @param uvs also read the texture coordinates (MeshData::uvs), when a textured material needs them; an OBJ's
+/// corners are then joined only where their (u, v) agree too.
+MeshData readMeshFile(const std::string& path, bool uvs = false);
 
 /// readMeshFile on bytes already in memory, `name` used in messages only (the fuzz target's entry). Never reads
 /// another file (an OBJ's material library is ignored). @throws MeshError.
-MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std::string& name);
+MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std::string& name, bool uvs = false);
 
 } // namespace raylife

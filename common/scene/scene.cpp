@@ -233,3 +233,58 @@ Camera Scene::makeCamera(int width, int height) const
 }
 
 } // namespace raylife
+
+namespace raylife {
+
+// [textureLookup]
+TextureLookup Scene::textureLookup(int primitive, const Vec3& point, Real time, Real footprint) const
+{
+  if (std::size_t(primitive) < spheres.size()) {
+    // A sphere: (u, v) of its outward normal, the texture turned about +y.
+    const Sphere& s = spheres[std::size_t(primitive)];
+    Vec3 n = glm::normalize(point - s.centerAt(time));
+    if (!sphereUvRotation.empty()) {
+      const SinCos<Real> r = sphereUvRotation[std::size_t(primitive)];
+      n = rotateAboutY(n, SinCos<Real>{-r.sin, r.cos});
+    }
+    return TextureLookup{directionToUv(n), footprint, true};
+  }
+  // A triangle: the barycentrics of the point, then its vertices' uvs interpolated (or the barycentrics themselves).
+  const std::size_t j = std::size_t(primitive) - spheres.size();
+  const Triangle& tri = triangles[j];
+  const auto [p0, p1, p2] = triangleVertices(j);
+  const Vec3 e1 = p1 - p0, e2 = p2 - p0, d = point - p0;
+  const Real d11 = glm::dot(e1, e1), d12 = glm::dot(e1, e2), d22 = glm::dot(e2, e2);
+  const Real dp1 = glm::dot(d, e1), dp2 = glm::dot(d, e2);
+  const Real denominator = d11 * d22 - d12 * d12;
+  const Real b1 = denominator > 0 ? (d22 * dp1 - d12 * dp2) / denominator : 0;
+  const Real b2 = denominator > 0 ? (d11 * dp2 - d12 * dp1) / denominator : 0;
+  const Real b0 = 1 - b1 - b2;
+  Vec2 uv(b1, b2);
+  if (meshes[tri.mesh].hasUvs)
+    uv = b0 * vertexUvs[tri.v[0]] + b1 * vertexUvs[tri.v[1]] + b2 * vertexUvs[tri.v[2]];
+  return TextureLookup{Vec2(uv.x, 1 - uv.y), footprint, false};
+}
+// [textureLookup]
+
+Real Scene::textureScale(int primitive, const Vec3& point, Real time) const
+{
+  if (std::size_t(primitive) < spheres.size()) {
+    const Sphere& s = spheres[std::size_t(primitive)];
+    const Vec3 n = glm::normalize(point - s.centerAt(time));
+    const Real sinTheta = std::max(std::sqrt(std::max(Real(0), 1 - n.y * n.y)), Real(1e-3));
+    return 1 / (2 * kPi * s.radius * sinTheta);
+  }
+  const std::size_t j = std::size_t(primitive) - spheres.size();
+  const Triangle& tri = triangles[j];
+  const auto [p0, p1, p2] = triangleVertices(j);
+  const Real area = glm::length(glm::cross(p1 - p0, p2 - p0));
+  Real uvArea = 1; // the barycentrics' own triangle, (0, 0), (1, 0), (0, 1), doubled
+  if (meshes[tri.mesh].hasUvs) {
+    const Vec2 a = vertexUvs[tri.v[1]] - vertexUvs[tri.v[0]], b = vertexUvs[tri.v[2]] - vertexUvs[tri.v[0]];
+    uvArea = std::abs(a.x * b.y - a.y * b.x);
+  }
+  return area > 0 ? std::sqrt(uvArea / area) : 0;
+}
+
+} // namespace raylife

@@ -7,6 +7,7 @@
 #include "scene/camera.h"
 #include "geometry/hit.h"
 #include "shading/light.h"
+#include "shading/environment.h"
 #include "shading/material.h"
 #include "geometry/ray.h"
 #include "geometry/sphere.h"
@@ -107,6 +108,7 @@ struct Mesh {
   bool smooth = false;              ///< Shaded with interpolated vertex normals (Scene::vertexNormals).
   std::uint32_t firstTriangle = 0;  ///< Its triangles are Scene::triangles[firstTriangle, + triangleCount).
   std::uint32_t triangleCount = 0;  ///< ≥ 1.
+  bool hasUvs = false;              ///< True when its vertices have texture coordinates (Scene::vertexUvs).
 };
 
 /// A loaded, validated scene. Immutable while rendering, so it is shared by all threads without locks.
@@ -127,6 +129,15 @@ struct Scene {
   std::vector<Vec3> vertexNormals;
   std::vector<Triangle> triangles; ///< Every mesh's triangles, none degenerate (zero area).
   std::vector<PointLight> lights;  ///< Point lights (may be empty).
+  /// The environment map (chapter 14; "environment" in the file), or null: then `background` is what a ray that
+  /// leaves the scene sees. A scene gives one or the other.
+  std::shared_ptr<const EnvironmentMap> environment;
+  /// Each sphere's texture rotation about +y ("rotate", as sine and cosine), indexed as `spheres`; empty when no
+  /// sphere turns its texture.
+  std::vector<SinCos<Real>> sphereUvRotation;
+  /// Texture coordinates (u, v) per vertex, indexed as `vertices` (v = 0 the image's bottom row), for the meshes that
+  /// have them (Mesh::hasUvs); empty when none has.
+  std::vector<Vec2> vertexUvs;
   std::vector<std::string> warnings; ///< Non-fatal remarks from the loader (an unused material, say).
 
   /// The BVH over the spheres and triangles, or an empty one. Filled by buildAccelerator(), which the loader calls.
@@ -191,6 +202,40 @@ struct Scene {
 
   /// occluded, also returning the work it did. Counts one ray.
   TracedOcclusion occludedWithWork(const Ray& ray) const;
+
+  /// The radiance a ray leaving the scene along unit direction `direction` sees: the environment map's there, or
+  /// the background. What every chapter from 5 on adds where a path escapes.
+  Color escaped(const Vec3& direction) const { return environment ? environment->radiance(direction) : background; }
+
+  /// Where the texture of primitive `primitive` is looked up at `point` on it (at time `time`, where a moving sphere
+  /// is): a sphere's (u, v) from its outward normal (turned by sphereUvRotation), t = v, clamped at the poles; a
+  /// triangle's (u, v) interpolated from its vertices' uvs (the barycentrics when it has none), t = 1 − v, repeated.
+  /// See texture.h for (s, t). `footprint` is copied into the lookup.
+  TextureLookup textureLookup(int primitive, const Vec3& point, Real time = 0, Real footprint = 0) const;
+
+  /// How many units of the texture coordinate s one scene unit of length on primitive `primitive` at `point` spans
+  /// (≥ 0): for a triangle √(its area in (u, v) / its area), for a sphere 1/(2πr sin θ) along its parallel. A ray
+  /// cone's footprint (scene units) times this is its width in (s, t) (chapter 14's mip-map level).
+  Real textureScale(int primitive, const Vec3& point, Real time = 0) const;
+  /// The curvature of primitive `primitive` (1/radius for a sphere, 0 for a triangle), per scene unit: how much a
+  /// reflection there widens a ray cone.
+  Real curvature(int primitive) const
+  {
+    return std::size_t(primitive) < spheres.size() ? 1 / spheres[std::size_t(primitive)].radius : 0;
+  }
+
+  /// Material `m`'s colour at the hit: its texture's at the hit's (u, v), or its constant colour.
+  Color colorAt(const Material& m, const Hit& hit, Real footprint = 0) const
+  {
+    return m.colorTexture ? m.colorTexture->eval(textureLookup(hit.primitive, hit.point, hit.time, footprint))
+                          : m.color;
+  }
+  /// Emission of primitive `primitive`'s material at `point`: its texture's there, or the constant.
+  Color emissionAt(int primitive, const Vec3& point, Real time = 0) const
+  {
+    const Material& m = materials[std::size_t(materialOf(primitive))];
+    return m.emissionTexture ? m.emissionTexture->eval(textureLookup(primitive, point, time)) : m.emission;
+  }
 
   /// The camera for an image of width × height pixels (the scene's own size when these are 0), with the scene's
   /// lens (aperture and focus).

@@ -4,6 +4,7 @@
 
 #include "core/edit_distance.h"
 #include "scene/mesh_file.h"
+#include "scene/texture_file.h"
 
 #include <nlohmann/json.hpp>
 
@@ -15,6 +16,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <unordered_map>
@@ -597,7 +599,83 @@ void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& ca
   cam.basis = std::get<CameraBasis>(basis);
 }
 
-Material readMaterial(const Reader& r, const Json& j, const Path& path, const std::string& name)
+// ---- Textures (chapter 14) ------------------------------------------------------------------------------------
+
+// The images the scene's textures and environment name, read once each (by resolved path and encoding) and shared.
+struct ImageCache {
+  std::string sceneFile;
+  std::map<std::pair<std::string, bool>, std::shared_ptr<const TexelImage>> images;
+
+  // The image `file` names (relative to the scene file), read as `encoding`; a fault is the scene's, at `path`.
+  std::shared_ptr<const TexelImage> get(const Reader& r, const Json& file, const Path& path, ImageEncoding encoding)
+  {
+    const std::string name = r.string(file, path);
+    if (name.empty())
+      r.fail(path, "the file name is empty");
+    const std::string resolved = (std::filesystem::path(sceneFile).parent_path() / name).string();
+    const auto key = std::make_pair(resolved, encoding == ImageEncoding::Linear);
+    if (const auto found = images.find(key); found != images.end())
+      return found->second;
+    try {
+      auto image = std::make_shared<const TexelImage>(readTextureImage(resolved, encoding));
+      images.emplace(key, image);
+      return image;
+    } catch (const ImageFileError& e) {
+      r.fail(path, e.what());
+    }
+  }
+};
+
+// A material's "color" or "emission" given as a texture object: { "image": ..., "filter", "linear" } or
+// { "checker": { "scale", "even", "odd" } }. Channels at most `maxChannel` (1 for a colour).
+TexturePtr readTexture(const Reader& r, const Json& j, const Path& path, Real maxChannel, const char* what,
+                       ImageCache& cache)
+{
+  if (j.contains("checker")) {
+    r.onlyKeys(j, path, {"checker"});
+    const Path cp = path / "checker";
+    const Json& jc = r.object(j["checker"], cp);
+    r.onlyKeys(jc, cp, {"scale", "even", "odd"});
+    Checker checker;
+    if (jc.contains("scale")) {
+      checker.scale = r.number(jc["scale"], cp / "scale");
+      if (!(checker.scale > 0 && checker.scale <= Real(1e9)))
+        r.fail(cp / "scale", "the checker's scale (squares per unit of u and v) must lie in (0, 1e9], got " +
+                                 jc["scale"].dump());
+    }
+    if (jc.contains("even"))
+      checker.even = r.color(jc["even"], cp / "even", maxChannel, what);
+    if (jc.contains("odd"))
+      checker.odd = r.color(jc["odd"], cp / "odd", maxChannel, what);
+    return std::make_shared<const Texture>(checker);
+  }
+  r.onlyKeys(j, path, {"image", "filter", "linear"});
+  if (!j.contains("image"))
+    r.fail(path, std::string("expected ") + what + " as [r, g, b], { \"image\": \"file\" } or { \"checker\": {...} }");
+  TextureFilter filter = TextureFilter::Bilinear;
+  if (j.contains("filter")) {
+    const std::string f = r.string(j["filter"], path / "filter");
+    if (f == "nearest")
+      filter = TextureFilter::Nearest;
+    else if (f != "bilinear")
+      r.fail(path / "filter", "unknown filter '" + shorten(f) + "'; known filters: 'bilinear', 'nearest'");
+  }
+  bool linear = false;
+  if (j.contains("linear")) {
+    if (!j["linear"].is_boolean())
+      r.fail(path / "linear", "expected true or false, got " + Reader::describe(j["linear"]));
+    linear = j["linear"].get<bool>();
+  }
+  auto image = cache.get(r, j["image"], path / "image", linear ? ImageEncoding::Linear : ImageEncoding::Srgb);
+  if (maxChannel <= 1)
+    for (float v : image->rgb)
+      if (v > 1)
+        r.fail(path / "image", std::string("a colour texture's values must lie in [0, 1] (a surface cannot reflect "
+                                           "more light than reaches it); the image has ") + std::to_string(v));
+  return std::make_shared<const Texture>(std::move(image), filter);
+}
+
+Material readMaterial(const Reader& r, const Json& j, const Path& path, const std::string& name, ImageCache& cache)
 {
   r.object(j, path);
   Material m;
@@ -630,10 +708,18 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
                                  (std::string(special) == "ior" ? "glass" : "glossy and metal") + ")");
   r.onlyKeys(j, path, keys);
 
-  if (j.contains("color"))
+  if (j.contains("color") && j["color"].is_object()) { // a texture (chapter 14); the mean for the earlier chapters
+    m.colorTexture = readTexture(r, j["color"], path / "color", 1, "a colour", cache);
+    m.color = m.colorTexture->mean();
+  } else if (j.contains("color")) {
     m.color = r.color(j["color"], path / "color", 1, "a colour");
-  if (j.contains("emission"))
+  }
+  if (j.contains("emission") && j["emission"].is_object()) {
+    m.emissionTexture = readTexture(r, j["emission"], path / "emission", kInfinity, "emission", cache);
+    m.emission = m.emissionTexture->mean();
+  } else if (j.contains("emission")) {
     m.emission = r.color(j["emission"], path / "emission", kInfinity, "emission");
+  }
   if (j.contains("ior")) {
     m.ior = r.number(j["ior"], path / "ior");
     if (m.ior < 1)
@@ -726,6 +812,18 @@ MeshData readInlineMesh(const Reader& r, const Json& j, const Path& path)
       tri[c] = std::uint32_t(r.wholeNumber(triangles[k][c], tp / c, 0, std::int64_t(vertices.size()) - 1));
     data.triangles.push_back(tri);
   }
+  if (j.contains("uvs")) { // texture coordinates (chapter 14): one [u, v] per vertex
+    const Json& uvs = j["uvs"];
+    if (!uvs.is_array() || uvs.size() != vertices.size())
+      r.fail(path / "uvs", "expected one [u, v] per vertex (" + std::to_string(vertices.size()) + "), got " +
+                               Reader::describe(uvs));
+    for (std::size_t v = 0; v < uvs.size(); ++v) {
+      const Path up = path / "uvs" / v;
+      if (!uvs[v].is_array() || uvs[v].size() != 2)
+        r.fail(up, "expected texture coordinates [u, v], got " + Reader::describe(uvs[v]));
+      data.uvs.push_back(Vec2(r.number(uvs[v][0], up / 0), r.number(uvs[v][1], up / 1)));
+    }
+  }
   if (j.contains("normals")) {
     const Json& normals = j["normals"];
     if (!normals.is_array() || normals.size() != vertices.size())
@@ -771,7 +869,7 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
   if (fromFile)
     r.onlyKeys(j, path, {"file", "material", "transform", "smooth"});
   else
-    r.onlyKeys(j, path, {"vertices", "triangles", "normals", "material", "transform", "smooth"});
+    r.onlyKeys(j, path, {"vertices", "triangles", "normals", "uvs", "material", "transform", "smooth"});
   if (!fromFile && !j.contains("vertices"))
     r.fail(path, "a mesh needs \"file\" (an .obj or .ply file) or inline \"vertices\" and \"triangles\"");
   Mesh mesh;
@@ -792,7 +890,8 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
     const std::filesystem::path resolved = std::filesystem::path(sceneFile).parent_path() / file;
     mesh.source = file;
     try {
-      data = readMeshFile(resolved.string());
+      const Material& m = scene.materials[std::size_t(mesh.material)];
+      data = readMeshFile(resolved.string(), m.colorTexture || m.emissionTexture);
     } catch (const MeshError& e) {
       r.fail(path / "file", e.what());
     }
@@ -859,6 +958,15 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
     scene.vertexNormals.insert(scene.vertexNormals.end(), normals.begin(), normals.end());
   } else if (!scene.vertexNormals.empty()) {
     scene.vertexNormals.resize(base + data.positions.size(), Vec3(0));
+  }
+
+  // Texture coordinates (chapter 14), indexed as the vertices; 0 for the meshes without.
+  if (!data.uvs.empty() && data.uvs.size() == data.positions.size()) {
+    mesh.hasUvs = true;
+    scene.vertexUvs.resize(base, Vec2(0));
+    scene.vertexUvs.insert(scene.vertexUvs.end(), data.uvs.begin(), data.uvs.end());
+  } else if (!scene.vertexUvs.empty()) {
+    scene.vertexUvs.resize(base + data.positions.size(), Vec2(0));
   }
 
   const auto meshIndex = std::uint32_t(scene.meshes.size());
@@ -936,20 +1044,39 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
   Scene scene;
   scene.fileName = fileName;
   r.object(root, top);
-  r.onlyKeys(root, top, {"camera", "background", "ambient", "materials", "spheres", "meshes", "lights"});
+  r.onlyKeys(root, top,
+             {"camera", "background", "ambient", "materials", "spheres", "meshes", "lights", "environment"});
+  ImageCache images{fileName, {}};
 
   readCamera(r, r.required(root, top, "camera"), top / "camera", scene.camera, sizeGiven);
   if (root.contains("background"))
     scene.background = r.color(root["background"], top / "background", kInfinity, "background radiance");
   if (root.contains("ambient"))
     scene.ambient = r.color(root["ambient"], top / "ambient", kInfinity, "ambient radiance");
+  if (root.contains("environment")) { // chapter 14: an equirectangular map instead of the background
+    const Path ep = top / "environment";
+    if (root.contains("background"))
+      r.fail(ep, "the scene gives \"background\" and \"environment\": give one or the other");
+    const Json& je = r.object(root["environment"], ep);
+    r.onlyKeys(je, ep, {"file", "scale", "rotate"});
+    auto image = images.get(r, r.required(je, ep, "file"), ep / "file", ImageEncoding::Linear);
+    Real scale = 1, rotate = 0;
+    if (je.contains("scale")) {
+      scale = r.number(je["scale"], ep / "scale");
+      if (!(scale >= 0 && scale <= Real(1e30)))
+        r.fail(ep / "scale", "the scale must lie in [0, 1e30], got " + je["scale"].dump());
+    }
+    if (je.contains("rotate"))
+      rotate = r.number(je["rotate"], ep / "rotate");
+    scene.environment = std::make_shared<const EnvironmentMap>(std::move(image), scale, rotate);
+  }
 
   // Materials: an object of name → material; order of the names gives the indices.
   std::vector<std::string> materialNames;
   if (root.contains("materials")) {
     const Json& mats = r.object(root["materials"], top / "materials");
     for (auto it = mats.begin(); it != mats.end(); ++it) {
-      scene.materials.push_back(readMaterial(r, it.value(), top / "materials" / it.key(), it.key()));
+      scene.materials.push_back(readMaterial(r, it.value(), top / "materials" / it.key(), it.key(), images));
       materialNames.push_back(it.key());
     }
   }
@@ -977,7 +1104,7 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
     for (std::size_t i = 0; i < spheres.size(); ++i) {
       const Path p = top / "spheres" / i;
       const Json& js = r.object(spheres[i], p);
-      r.onlyKeys(js, p, {"center", "radius", "material", "velocity"});
+      r.onlyKeys(js, p, {"center", "radius", "material", "velocity", "rotate"});
       Sphere s;
       s.center = r.point(r.required(js, p, "center"), p / "center");
       s.radius = r.number(r.required(js, p, "radius"), p / "radius");
@@ -992,6 +1119,13 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
         if (!withinSceneExtent(s.center + s.velocity))
           r.fail(p / "velocity", "the sphere's centre at the end of the shutter interval (center + velocity) lies "
                                  "beyond ±1e50 (raylife's bound on a scene's size)");
+      }
+      if (js.contains("rotate")) { // its texture turned about +y (chapter 14), in degrees
+        const Real angle = r.number(js["rotate"], p / "rotate") * kPi / 180;
+        scene.sphereUvRotation.resize(scene.spheres.size(), SinCos<Real>{0, 1});
+        scene.sphereUvRotation.push_back(SinCos<Real>{std::sin(angle), std::cos(angle)});
+      } else if (!scene.sphereUvRotation.empty()) {
+        scene.sphereUvRotation.push_back(SinCos<Real>{0, 1});
       }
       scene.spheres.push_back(s);
     }

@@ -19,7 +19,8 @@ ScenePlan planScene(const Scene& scene, unsigned uses)
     plan.emitters += (uses & kUsesEmission) && m.isEmissive();
     plan.glass = plan.glass || ((uses & kUsesGlass) && m.type == MaterialType::Glass);
   }
-  plan.backgroundBlack = !(uses & kUsesBackground) || scene.background == Color(0);
+  plan.backgroundBlack = !(uses & kUsesBackground) ||
+                         (scene.background == Color(0) && !(scene.environment && (uses & kUsesEnvironment)));
   plan.ambient = (uses & kUsesAmbient) && scene.ambient != Color(0);
   if (!(uses & kUsesPointLights))
     plan.ignoredPointLights = scene.lights.size();

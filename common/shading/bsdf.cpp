@@ -254,12 +254,14 @@ std::optional<BsdfSample> metalSample(const Color& f0, Real alpha, const Vec3& w
 }
 // [ggx]
 
-Color bsdfEval(const Material& m, const Vec3& wo, const Vec3& wi)
+Color bsdfEval(const Material& m, const Vec3& wo, const Vec3& wi) { return bsdfEval(m, m.color, wo, wi); }
+
+Color bsdfEval(const Material& m, const Color& color, const Vec3& wo, const Vec3& wi)
 {
   switch (m.type) {
-  case MaterialType::Diffuse: return lambertianEval(m.color, wo, wi);
-  case MaterialType::Glossy: return phongEval(m.color, phongExponent(m.roughness), wo, wi);
-  case MaterialType::Metal: return metalEval(m.color, m.roughness, wo, wi);
+  case MaterialType::Diffuse: return lambertianEval(color, wo, wi);
+  case MaterialType::Glossy: return phongEval(color, phongExponent(m.roughness), wo, wi);
+  case MaterialType::Metal: return metalEval(color, m.roughness, wo, wi);
   case MaterialType::Mirror:
   case MaterialType::Glass: return Color(0);
   }
@@ -281,15 +283,20 @@ Real bsdfPdf(const Material& m, const Vec3& wo, const Vec3& wi)
 // [bsdfSample]
 std::optional<BsdfSample> bsdfSample(const Material& m, const Vec3& wo, Vec2 u, Real uChoice)
 {
+  return bsdfSample(m, m.color, wo, u, uChoice);
+}
+// [bsdfSample]
+
+std::optional<BsdfSample> bsdfSample(const Material& m, const Color& color, const Vec3& wo, Vec2 u, Real uChoice)
+{
   switch (m.type) {
-  case MaterialType::Diffuse: return lambertianSample(m.color, wo, u);
-  case MaterialType::Mirror: return mirrorSample(m.color, wo);
-  case MaterialType::Glass: return dielectricSample(m.color, m.ior, wo, uChoice);
-  case MaterialType::Glossy: return phongSample(m.color, phongExponent(m.roughness), wo, u);
-  case MaterialType::Metal: return metalSample(m.color, m.roughness, wo, u);
+  case MaterialType::Diffuse: return lambertianSample(color, wo, u);
+  case MaterialType::Mirror: return mirrorSample(color, wo);
+  case MaterialType::Glass: return dielectricSample(color, m.ior, wo, uChoice);
+  case MaterialType::Glossy: return phongSample(color, phongExponent(m.roughness), wo, u);
+  case MaterialType::Metal: return metalSample(color, m.roughness, wo, u);
   }
   return std::nullopt;
 }
-// [bsdfSample]
 
 } // namespace raylife

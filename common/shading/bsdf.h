@@ -170,4 +170,9 @@ Real bsdfPdf(const Material& m, const Vec3& wo, const Vec3& wi);
 /// @param uChoice uniform in [0, 1) (which lobe, for glass). Nothing when the sample carries no light.
 std::optional<BsdfSample> bsdfSample(const Material& m, const Vec3& wo, Vec2 u, Real uChoice);
 
+/// bsdfEval with `color` (the material's colour at the hit: a texture's value there, chapter 14) for `m.color`.
+Color bsdfEval(const Material& m, const Color& color, const Vec3& wo, const Vec3& wi);
+/// bsdfSample with `color` (the material's colour at the hit) for `m.color`.
+std::optional<BsdfSample> bsdfSample(const Material& m, const Color& color, const Vec3& wo, Vec2 u, Real uChoice);
+
 } // namespace raylife

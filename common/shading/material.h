@@ -3,6 +3,7 @@
 #pragma once
 
 #include "core/math.h"
+#include "shading/texture.h"
 
 #include <string>
 
@@ -30,6 +31,11 @@ struct Material {
   Color emission{0};                        ///< Emitted radiance Le, ≥ 0 per channel; non-zero makes an area light.
   Real ior = Real(1.5);                     ///< Index of refraction (glass), ≥ 1, relative to the outside medium.
   Real roughness = Real(0.3);               ///< Roughness: glossy's in (0, 1]; metal's GGX α in [0, 1].
+  /// `color` as a texture (chapter 14), or null. When set, `color` holds its mean: what the chapters before 14,
+  /// which know no (u, v), shade with.
+  TexturePtr colorTexture;
+  /// `emission` as a texture (chapter 14), or null; when set, `emission` holds its mean (the light's power).
+  TexturePtr emissionTexture;
 
   /// True when the surface emits light.
   bool isEmissive() const { return emission.r > 0 || emission.g > 0 || emission.b > 0; }

@@ -15,7 +15,7 @@ Color trace(const Scene& scene, const Ray& ray, Sampler& /*sampler*/)
 {
   const std::optional<Hit> hit = scene.intersect(ray);
   if (!hit)
-    return scene.background;
+    return scene.escaped(ray.direction);
 
   const Color C = scene.materials[std::size_t(hit->material)].color;
   const Vec3 N = facingNormal(*hit, ray.direction);
@@ -33,6 +33,7 @@ int main(int argc, char** argv)
 {
   const ChapterInfo chapter{.binary = "step03_lambert",
                             .defaultScene = "spheres.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground};
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground |
+                                    kUsesEnvironment};
   return runChapter(argc, argv, chapter, trace);
 }

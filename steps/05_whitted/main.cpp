@@ -44,7 +44,7 @@ Color trace(const Scene& scene, const Ray& ray, Sampler& sampler, int depthLeft)
 {
   const std::optional<Hit> hit = scene.intersect(ray);
   if (!hit)
-    return scene.background;
+    return scene.escaped(ray.direction);
   const Material& m = scene.materials[std::size_t(hit->material)];
 
   // Diffuse surfaces (and glossy and metal ones, taken as diffuse): chapter 4's local shading, ambient plus
@@ -89,6 +89,7 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = "step05_whitted",
                             .defaultScene = "whitted.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground |
+                                    kUsesEnvironment |
                                     kUsesEmission | kUsesMirror | kUsesGlass | kUsesMaxDepth | kShadowRays |
                                     kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,

@@ -32,7 +32,7 @@ Color trace(const Scene& scene, const Ray& primary, Sampler& sampler, int maxDep
     // Follow the ray. A ray that leaves the scene sees the background, an environment that emits.
     const std::optional<Hit> hit = scene.intersect(ray);
     if (!hit) {
-      L += beta * scene.background;
+      L += beta * scene.escaped(ray.direction);
       break;
     }
     const Material& m = scene.materials[std::size_t(hit->material)];
@@ -74,7 +74,8 @@ int main(int argc, char** argv)
   /// [chapter]
   const ChapterInfo chapter{.binary = "step06_path_tracer",
                             .defaultScene = "cornell_large_lamp.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesBackground | kUsesEmission | kUsesMirror |
+                            .uses = kUsesSpheres | kUsesColors | kUsesBackground |
+                                    kUsesEnvironment | kUsesEmission | kUsesMirror |
                                     kUsesGlass | kUsesGlossy | kUsesMaxDepth | kUsesMetal |
                                     kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,

@@ -38,7 +38,7 @@ Color trace(const LightSampler& lights, bool sampleLights, const Scene& scene, c
     // Follow the ray. A ray that leaves the scene sees the background (never light-sampled, so always counted).
     const std::optional<Hit> hit = scene.intersect(ray);
     if (!hit) {
-      L += beta * scene.background;
+      L += beta * scene.escaped(ray.direction);
       break;
     }
     const Material& m = scene.materials[std::size_t(hit->material)];
@@ -96,7 +96,8 @@ int main(int argc, char** argv)
   /// [chapter]
   const ChapterInfo chapter{.binary = "step07_light_sampling",
                             .defaultScene = "cornell.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground |
+                                    kUsesEnvironment | kUsesEmission |
                                     kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights |
                                     kUsesMetal | kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,

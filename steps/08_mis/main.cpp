@@ -42,7 +42,7 @@ Color trace(const LightSampler& lights, bool sampleLights, MisHeuristic heuristi
     // Follow the ray. A ray that leaves the scene sees the background (only BSDF sampling finds it: weight 1).
     const std::optional<Hit> hit = scene.intersect(ray);
     if (!hit) {
-      L += beta * scene.background;
+      L += beta * scene.escaped(ray.direction);
       break;
     }
     const Material& m = scene.materials[std::size_t(hit->material)];
@@ -108,7 +108,8 @@ int main(int argc, char** argv)
   /// [chapter]
   const ChapterInfo chapter{.binary = "step08_mis",
                             .defaultScene = "mis.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground |
+                                    kUsesEnvironment | kUsesEmission |
                                     kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights |
                                     kUsesMetal | kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,

@@ -27,7 +27,7 @@ Color shade(const Scene& scene, const Ray& ray, Sampler& /*sampler*/)
 {
   const std::optional<Hit> hit = scene.intersect(ray);
   if (!hit)
-    return scene.background;
+    return scene.escaped(ray.direction);
   const Color C = scene.materials[std::size_t(hit->material)].color;
   const Vec3 N = facingNormal(*hit, ray.direction);
   Color I = scene.ambient * C;
@@ -65,6 +65,7 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = "step09_bvh",
                             .defaultScene = "random_diffuse.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground |
+                                    kUsesEnvironment |
                                     kShadowRays,
                             .besideTrace = [](const Scene& s, const Ray& r, Sampler& sampler, int) {
                               return work(s, r, sampler);

@@ -48,7 +48,7 @@ Color facets(const Scene& scene, const Ray& ray, Sampler& /*sampler*/)
 {
   const std::optional<Hit> hit = scene.intersect(ray);
   if (!hit)
-    return scene.background;
+    return scene.escaped(ray.direction);
   const Color shade = headlight(scene, *hit, hit->geometricNormal, ray.direction);
   // A sphere is one piece; a triangle (numbered after the spheres) gets its colour.
   if (std::size_t(hit->primitive) < scene.spheres.size())
@@ -64,7 +64,7 @@ Color smooth(const Scene& scene, const Ray& ray, Sampler& /*sampler*/)
 {
   const std::optional<Hit> hit = scene.intersect(ray);
   if (!hit)
-    return scene.background;
+    return scene.escaped(ray.direction);
   return headlight(scene, *hit, hit->normal, ray.direction);
 }
 /// [smooth]
@@ -73,7 +73,7 @@ int main(int argc, char** argv)
 {
   const ChapterInfo chapter{.binary = "step10_meshes",
                             .defaultScene = "meshes.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesBackground | kUsesEmission,
+                            .uses = kUsesSpheres | kUsesColors | kUsesBackground | kUsesEnvironment | kUsesEmission,
                             .besideTrace = [](const Scene& s, const Ray& r, Sampler& sampler, int) {
                               return smooth(s, r, sampler);
                             }};

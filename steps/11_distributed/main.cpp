@@ -29,7 +29,7 @@ Color trace(const LightSampler& lights, const Scene& scene, const Ray& ray, Samp
 {
   const std::optional<Hit> hit = scene.intersect(ray);
   if (!hit)
-    return scene.background;
+    return scene.escaped(ray.direction);
   const Material& m = scene.materials[std::size_t(hit->material)];
   const Frame frame = Frame::fromNormal(hit->normal);
   const Vec3 wo = frame.toLocal(-ray.direction);
@@ -73,6 +73,7 @@ int main(int argc, char** argv)
   const ChapterInfo chapter{.binary = "step11_distributed",
                             .defaultScene = "distributed.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesAmbient | kUsesBackground |
+                                    kUsesEnvironment |
                                     kUsesEmission | kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMetal |
                                     kUsesMaxDepth | kUsesLens | kUsesMotion | kSamplesLights,
                             .pixelSampling = PixelSampling::Jittered,

@@ -26,7 +26,7 @@ Color trace(Real maxDistance, const Scene& scene, const Ray& ray, Sampler& sampl
 {
   const std::optional<Hit> hit = scene.intersect(ray);
   if (!hit)
-    return scene.background;
+    return scene.escaped(ray.direction);
   // The hemisphere on the side the ray came from (a sphere's inside, seen from inside, is occluded from inside).
   const Vec3 n = glm::dot(hit->normal, ray.direction) < 0 ? hit->normal : -hit->normal;
   // One direction, cosine-weighted, and its shadow ray: the sample is V itself.
@@ -42,7 +42,7 @@ int main(int argc, char** argv)
   /// [chapter]
   const ChapterInfo chapter{.binary = "step12_ambient_occlusion",
                             .defaultScene = "meshes.json",
-                            .uses = kUsesSpheres | kUsesBackground | kUsesLens | kUsesMotion,
+                            .uses = kUsesSpheres | kUsesBackground | kUsesEnvironment | kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
                             .options = {{.name = "--ao-distance",

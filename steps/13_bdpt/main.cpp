@@ -359,7 +359,8 @@ Color trace(const Context& c, const Ray& primary)
   for (int t = 2;; ++t) {
     const std::optional<Hit> hit = c.scene.intersect(ray);
     if (!hit) {
-      L += c.strategies.weight(0, t, 1) * state.beta * c.scene.background; // only the camera subpath finds it
+      // Only the camera subpath finds the background or the environment.
+      L += c.strategies.weight(0, t, 1) * state.beta * c.scene.escaped(ray.direction);
       break;
     }
     const Real cosHit = std::abs(glm::dot(hit->normal, ray.direction));
@@ -394,7 +395,8 @@ int main(int argc, char** argv)
   /// [chapter]
   const ChapterInfo chapter{.binary = "step13_bdpt",
                             .defaultScene = "caustics.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground |
+                                    kUsesEnvironment | kUsesEmission |
                                     kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 16,
