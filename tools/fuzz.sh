@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Fuzzes the scene loader and the mesh files with libFuzzer for SECONDS in all (default 60): half each, or all of it
-# for the scene loader when RAYLIFE_FUZZ_MESH=0. Single process.
+# Fuzzes the scene loader, the mesh files and the texture images with libFuzzer for SECONDS in all (default 60): a
+# third each, or all of it for the scene loader when RAYLIFE_FUZZ_MESH=0. Single process.
 #   tools/fuzz.sh SECONDS [BUILD_DIR]
 # Builds tests/fuzz/fuzz_scene and fuzz_mesh in BUILD_DIR (default build-asan/) configured by the asan preset: clang,
 # -fsanitize=fuzzer-no-link,address,undefined, the same build in which `cmake --workflow --preset asan` runs the
@@ -27,14 +27,16 @@ build=${2:-$root/build-asan}
 
 mkdir -p "$build"
 (cd "$root" && cmake --preset asan -B "$build") >"$build/configure.log" 2>&1 || { cat "$build/configure.log" >&2; exit 1; }
-cmake --build "$build" --target fuzz_scene fuzz_mesh -j2
+cmake --build "$build" --target fuzz_scene fuzz_mesh fuzz_image -j2
 
 meshOn=1
 [ "${RAYLIFE_FUZZ_MESH:-1}" != 0 ] || meshOn=0
 sceneSeconds=$seconds
 if [ "$meshOn" = 1 ]; then
-  sceneSeconds=$(( (seconds + 1) / 2 ))
-  meshSeconds=$(( seconds - sceneSeconds > 0 ? seconds - sceneSeconds : 1 ))
+  # A third each to the scene loader, the mesh files and the texture images (chapter 14).
+  sceneSeconds=$(( (seconds + 2) / 3 ))
+  meshSeconds=$(( (seconds - sceneSeconds + 1) / 2 > 0 ? (seconds - sceneSeconds + 1) / 2 : 1 ))
+  imageSeconds=$(( seconds - sceneSeconds - meshSeconds > 0 ? seconds - sceneSeconds - meshSeconds : 1 ))
 fi
 
 corpus="$build/corpus"
@@ -66,6 +68,22 @@ if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
   ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_mesh" "$meshCorpus" "$meshSeeds" "$root/tests/fuzz/mesh_regressions" \
     -max_total_time="$meshSeconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1 \
     -artifact_prefix="$crashes/" || status=$?
+fi
+if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
+  # The image fuzzer's seeds: its regressions, and small PNG and JPEG files from Assimp's test models ('n', even:
+  # decoded as sRGB).
+  imageCorpus="$build/corpus-image"
+  imageSeeds="$build/seeds-image"
+  mkdir -p "$imageCorpus" "$imageSeeds"
+  for f in /usr/share/assimp/models/*/*.png /usr/share/assimp/models/*/*.jpg; do
+    [ -f "$f" ] && [ "$(stat -c %s "$f")" -le 65536 ] || continue
+    { printf 'n'; cat "$f"; } >"$imageSeeds/$(basename "$f").bin"
+  done
+  echo "fuzz.sh: fuzzing the texture images for $imageSeconds s; corpus $imageCorpus, faults into $crashes/"
+  # (stb_image runs in the reader's child process, which ends with _exit.)
+  ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_image" "$imageCorpus" "$imageSeeds" \
+    "$root/tests/fuzz/image_regressions" -max_total_time="$imageSeconds" -timeout=10 -rss_limit_mb=2048 \
+    -max_len=65536 -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
 fi
 if [ "$status" -ne 0 ]; then
   echo "fuzz.sh: the fuzzer found a fault (status $status); inputs in $crashes/:" >&2

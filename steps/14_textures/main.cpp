@@ -177,7 +177,7 @@ int main(int argc, char** argv)
                                     kUsesGlossy | kUsesMaxDepth | kSamplesLights | kUsesMetal | kUsesLens |
                                     kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,
-                            .defaultSpp = 64,
+                            .defaultSpp = 16,
                             .defaultMaxDepth = -1,
                             .options = {kHeuristicOption,
                                         {"--texture-filter", OptionKind::Choice,

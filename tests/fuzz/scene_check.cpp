@@ -102,6 +102,26 @@ std::string checkMeshBytes(std::string_view bytes, MeshFormat format)
   return "";
 }
 
+std::string checkImageBytes(std::string_view bytes, ImageEncoding encoding)
+{
+  TexelImage image;
+  try {
+    image = decodeStbImage(std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(bytes.data()),
+                                                          bytes.size()),
+                           encoding, "fuzz.image");
+  } catch (const ImageFileError& e) {
+    return checkMessage(e.what(), "fuzz.image");
+  }
+  if (image.width < 1 || image.height < 1 || (long long)image.width * image.height > kMaxTexels)
+    return "an image of " + std::to_string(image.width) + "x" + std::to_string(image.height) + " was accepted";
+  if (image.rgb.size() != std::size_t(image.width) * std::size_t(image.height) * 3)
+    return "texels that do not match the size";
+  for (float v : image.rgb)
+    if (!std::isfinite(v) || v < 0)
+      return "a texel that is negative or not finite was accepted";
+  return "";
+}
+
 std::string checkSceneText(std::string_view text)
 {
   Scene scene;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "scene/mesh_file.h"
+#include "scene/texture_file.h"
 
 #include <string>
 #include <string_view>
@@ -23,5 +24,11 @@ std::string checkSceneText(std::string_view text);
 /// MeshError must be one printable line that starts with "fuzz.mesh"; a mesh that loads must have triangles, every
 /// index in range and every vertex finite. @return "" when all is well, otherwise what was wrong.
 std::string checkMeshBytes(std::string_view bytes, MeshFormat format);
+
+/// Feeds `bytes` to decodeStbImage (chapter 14's textures; stb_image runs in a child process) as `encoding`, named
+/// "fuzz.image", and checks what comes back: an ImageFileError must be one printable line that starts with
+/// "fuzz.image"; an image that decodes must have a size in [1, kMaxTexels] and width·height·3 finite texels ≥ 0.
+/// @return "" when all is well, otherwise what was wrong.
+std::string checkImageBytes(std::string_view bytes, ImageEncoding encoding);
 
 } // namespace raylife::fuzz

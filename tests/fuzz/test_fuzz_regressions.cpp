@@ -55,6 +55,21 @@ TEST_CASE("every scene of the seed corpus is handled")
   }
 }
 
+TEST_CASE("every image file the image fuzzer found or was seeded with is handled")
+{
+  // The fuzz target's input: the first byte chooses the encoding (even: sRGB, odd: linear), the rest is the file.
+  const auto files = filesIn(RAYLIFE_FUZZ_IMAGE_REGRESSIONS);
+  REQUIRE(files.size() >= 3);
+  for (const auto& file : files) {
+    INFO(file.string());
+    const std::string bytes = readAll(file);
+    REQUIRE_FALSE(bytes.empty());
+    const auto encoding = static_cast<unsigned char>(bytes[0]) % 2 == 0 ? raylife::ImageEncoding::Srgb
+                                                                        : raylife::ImageEncoding::Linear;
+    CHECK(raylife::fuzz::checkImageBytes(std::string_view(bytes).substr(1), encoding) == "");
+  }
+}
+
 TEST_CASE("every mesh file the mesh fuzzer found or was seeded with is handled")
 {
   // The fuzz target's input: the first byte chooses the format (even: OBJ, odd: PLY), the rest is the file.

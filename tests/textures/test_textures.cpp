@@ -152,7 +152,7 @@ TEST_CASE("bad image files: one message naming the file and the fault, as a scen
 
 // ---- Filters ---------------------------------------------------------------------------------------------------
 
-TEST_CASE("nearest and bilinear agree at texel centres; bilinear is the average halfway between four texels")
+TEST_CASE("nearest and bilinear agree at texel centres, and bilinear is the average halfway between four texels")
 {
   auto image = std::make_shared<const TexelImage>(readTextureImage(kTextures + "texels_4x2.png", ImageEncoding::Srgb));
   const Texture nearest(image, TextureFilter::Nearest), bilinear(image, TextureFilter::Bilinear);

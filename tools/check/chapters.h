@@ -59,6 +59,7 @@ inline constexpr GradedChapter kGradedChapters[] = {
     {11, "step11_distributed", Grading::Statistical, 64, 48, 64, 4096, 2},
     {12, "step12_ambient_occlusion", Grading::Statistical, 64, 64, 64, 4096},
     {13, "step13_bdpt", Grading::Statistical, 64, 48, 16, 2048, 2},
+    {14, "step14_textures", Grading::Statistical, 64, 48, 16, 4096, 2},
     {16, "step16_wavefront", Grading::Statistical, 64, 48, 64, 8192, 4},
     {17, "step17_opencl", Grading::Statistical, 64, 48, 64, 8192, 4},
 };
