@@ -29,7 +29,8 @@ std::string describeReads(unsigned uses)
       {kUsesSpheres, "spheres and meshes"}, {kUsesColors, "material colours"}, {kUsesPointLights, "point lights"},
       {kUsesAmbient, "the ambient term"},   {kUsesBackground, "the background"}, {kUsesEmission, "emission"},
       {kUsesMirror, "mirrors"},             {kUsesGlass, "glass"},              {kUsesGlossy, "glossy materials"},
-      {kUsesMetal, "metals"},               {kUsesLens, "the camera's lens"},   {kUsesMotion, "the spheres' velocities"}};
+      {kUsesMetal, "metals"},               {kUsesLens, "the camera's lens"},   {kUsesMotion, "the spheres' velocities"},
+      {kUsesEnvironment, "the environment map"}, {kUsesTextures, "textures"}};
   for (const auto& [flag, what] : features)
     if (uses & flag)
       parts.push_back(what);
