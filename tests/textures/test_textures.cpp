@@ -274,18 +274,20 @@ Color texelAt(double s, double t)
 
 } // namespace
 
-TEST_CASE("texels land where the conventions say: a quad with uvs, under a uniform sky of 1, is its texels")
+namespace {
+
+// Renders a quad in the plane z = 0 spanning [-2, 2] × [-1, 1], given by `mesh` (a "meshes" entry without its
+// material), textured with texels_4x2.png (nearest) under a uniform sky of 1, and checks every pixel whose corners
+// all see one texel: it must be that texel's decoded colour, the texel at (u, v) = ((x + 2)/4, (y + 1)/2) with v = 0
+// the image's bottom row (OBJ's convention). Returns the number of pixels checked.
+int checkQuad(const TempDir& dir, const std::string& mesh, const std::string& tag)
 {
-  TempDir dir("quad");
-  fs::copy_file(kTextures + "texels_4x2.png", dir.path / "t.png");
-  // A quad in the plane z = 0, (u, v) = (x + 2)/4, (y + 1)/2: v = 0 at the bottom edge (OBJ's convention).
-  const std::string scene = dir.file("quad.json", R"({
+  const std::string scene = dir.file(tag + ".json", R"({
     "camera": {"eye": [0, 0, 4], "focal": [0, 0, 0], "vfov": 40, "width": 64, "height": 48},
     "background": [1, 1, 1],
     "materials": {"t": {"type": "diffuse", "color": {"image": "t.png", "filter": "nearest"}}},
-    "meshes": [{"material": "t", "vertices": [[-2, -1, 0], [2, -1, 0], [2, 1, 0], [-2, 1, 0]],
-                "triangles": [[0, 1, 2], [0, 2, 3]], "uvs": [[0, 0], [1, 0], [1, 1], [0, 1]]}]})");
-  const ChapterRender r = render14(scene, "--spp 4 --max-depth 1", "quad");
+    "meshes": [{"material": "t", )" + mesh + "}]}");
+  const ChapterRender r = render14(scene, "--spp 4 --max-depth 1", tag);
   const Camera camera = loadScene(scene).makeCamera(64, 48);
   int tested = 0;
   for (int y = 0; y < 48; ++y)
@@ -303,10 +305,38 @@ TEST_CASE("texels land where the conventions say: a quad with uvs, under a unifo
       if (!onQuad || corners[0] != corners[1] || corners[0] != corners[2] || corners[0] != corners[3])
         continue;
       ++tested;
+      CAPTURE(tag, x, y);
       for (int c = 0; c < 3; ++c)
         REQUIRE(double(r.mean.at(x, y, c)) == Approx(double(corners[0][c])).margin(1e-5));
     }
-  CHECK(tested > 1000);
+  return tested;
+}
+
+} // namespace
+
+TEST_CASE("texels land where the conventions say: a quad with inline uvs, under a uniform sky of 1, is its texels")
+{
+  TempDir dir("quad");
+  fs::copy_file(kTextures + "texels_4x2.png", dir.path / "t.png");
+  CHECK(checkQuad(dir, R"("vertices": [[-2, -1, 0], [2, -1, 0], [2, 1, 0], [-2, 1, 0]],
+    "triangles": [[0, 1, 2], [0, 2, 3]], "uvs": [[0, 0], [1, 0], [1, 1], [0, 1]])", "inline") > 1000);
+}
+
+TEST_CASE("texels land where the conventions say: a quad from an OBJ file's vt and a PLY file's u v and s t")
+{
+  TempDir dir("files");
+  fs::copy_file(kTextures + "texels_4x2.png", dir.path / "t.png");
+  dir.file("quad.obj", "v -2 -1 0\nv 2 -1 0\nv 2 1 0\nv -2 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                       "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n");
+  CHECK(checkQuad(dir, R"("file": "quad.obj")", "obj") > 1000);
+  for (const std::string names : {"u v", "s t"}) {
+    const std::string u = names.substr(0, 1), v = names.substr(2, 1);
+    dir.file("quad_" + u + ".ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                                   "property float z\nproperty float " + u + "\nproperty float " + v + "\n"
+                                   "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+                                   "-2 -1 0 0 0\n2 -1 0 1 0\n2 1 0 1 1\n-2 1 0 0 1\n3 0 1 2\n3 0 2 3\n");
+    CHECK(checkQuad(dir, R"("file": "quad_)" + u + R"(.ply")", "ply_" + u) > 1000);
+  }
 }
 
 TEST_CASE("texels land where the conventions say: a sphere from +x, -x, +z, -z and above is its texels")
