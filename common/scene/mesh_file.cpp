@@ -1,6 +1,7 @@
 // Mesh files through Assimp, in a child process, then raylife's own checks (see mesh_file.h for why both, and
 // below for why the child).
 #include "scene/mesh_file.h"
+#include "scene/pipe_io.h"
 
 #include <assimp/Importer.hpp>
 #include <assimp/config.h>
@@ -191,10 +192,20 @@ void weld(MeshData& data)
 // The stream, in this machine's byte order (both ends are one program on one machine), is records, each a Tag and
 // its fields: a Mesh (WireMesh, then its positions as float x, y, z, its normals likewise if it has them, and its
 // faces as WireFace), an Error (kind, length, the text), and an End (the number of meshes sent), which is last.
-enum Tag : std::uint32_t { kMeshTag = 0x4d455348u, kErrorTag = 0x4552524fu, kEndTag = 0x454e4421u };
+enum Tag : std::uint32_t {
+  kMeshTag = 0x4d455348u,
+  kErrorTag = 0x4552524fu,
+  kEndTag = 0x454e4421u,
+  kMaterialTag = 0x4d41544cu, // a material of the file (chapter 14's "from-file"): WireMaterial, name, texture path
+};
 struct WireMesh {
   std::uint32_t primitiveTypes, vertices, hasNormals, faces;
   std::uint32_t hasUvs; // texture coordinates follow the normals (as aiVector3D; only x and y are used)
+  std::uint32_t material; // the index of its material among the Material records (sent after the meshes)
+};
+struct WireMaterial {
+  float kd[3], ks[3], ke[3], ns;
+  std::uint32_t nameBytes, textureBytes; // each at most kMaxErrorBytes
 };
 struct WireFace {
   std::uint32_t count;    // the face's number of corners
@@ -230,15 +241,8 @@ private:
   static constexpr std::size_t kBufferBytes = std::size_t(1) << 20;
   void send(const char* data, std::size_t size) const
   {
-    while (size > 0) {
-      const ssize_t n = ::write(fd_, data, size);
-      if (n < 0 && errno == EINTR)
-        continue;
-      if (n <= 0)
-        _exit(kExitPipe);
-      data += n;
-      size -= std::size_t(n);
-    }
+    if (!writeAll(fd_, data, size))
+      _exit(kExitPipe);
   }
   int fd_;
   std::vector<char> buffer_;
@@ -277,7 +281,8 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
     const bool normals = mesh.mNormals != nullptr;
     out.put(kMeshTag);
     const bool uvs = mesh.mTextureCoords[0] != nullptr;
-    out.put(WireMesh{mesh.mPrimitiveTypes, mesh.mNumVertices, normals ? 1u : 0u, mesh.mNumFaces, uvs ? 1u : 0u});
+    out.put(WireMesh{mesh.mPrimitiveTypes, mesh.mNumVertices, normals ? 1u : 0u, mesh.mNumFaces, uvs ? 1u : 0u,
+                     mesh.mMaterialIndex});
     // (In arrays of a few thousand: a million triangles take tens of milliseconds.)
     std::vector<aiVector3D> vectors;
     auto sendVectors = [&](const aiVector3D* from, const aiMatrix3x3* linear, const aiMatrix4x4* affine) {
@@ -328,7 +333,35 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
 // The child: Assimp on the bytes, the stream to `fd`, and _exit (no destructor, no atexit handler: nothing of the
 // parent's is flushed or freed twice, LeakSanitizer's check at exit does not run, and the library's scene is not
 // freed, which takes long on a big model and gains nothing).
-[[noreturn]] void runReader(int fd, std::span<const char> bytes, MeshFormat format, bool uvs) noexcept
+// The scene's materials as Material records: the colours, shininess, name and diffuse texture an OBJ's MTL gives.
+void sendMaterials(const aiScene& scene, PipeWriter& out)
+{
+  for (unsigned k = 0; k < scene.mNumMaterials; ++k) {
+    const aiMaterial* m = scene.mMaterials ? scene.mMaterials[k] : nullptr;
+    aiColor3D kd(0, 0, 0), ks(0, 0, 0), ke(0, 0, 0);
+    float ns = 0;
+    aiString name, texture;
+    if (m) {
+      m->Get(AI_MATKEY_COLOR_DIFFUSE, kd);
+      m->Get(AI_MATKEY_COLOR_SPECULAR, ks);
+      m->Get(AI_MATKEY_COLOR_EMISSIVE, ke);
+      m->Get(AI_MATKEY_SHININESS, ns);
+      m->Get(AI_MATKEY_NAME, name);
+      if (m->GetTextureCount(aiTextureType_DIFFUSE) > 0)
+        m->GetTexture(aiTextureType_DIFFUSE, 0, &texture);
+    }
+    const std::string n(name.C_Str()), t(texture.C_Str());
+    const std::string nameCut = n.substr(0, kMaxErrorBytes), textureCut = t.substr(0, kMaxErrorBytes);
+    out.put(kMaterialTag);
+    out.put(WireMaterial{{kd.r, kd.g, kd.b}, {ks.r, ks.g, ks.b}, {ke.r, ke.g, ke.b}, ns,
+                         std::uint32_t(nameCut.size()), std::uint32_t(textureCut.size())});
+    out.put(nameCut.data(), nameCut.size());
+    out.put(textureCut.data(), textureCut.size());
+  }
+}
+
+[[noreturn]] void runReader(int fd, std::span<const char> bytes, MeshFormat format, bool uvs,
+                            const std::string* materialsFrom) noexcept
 {
   // The faults must end this process, by their signal: a handler inherited from the parent (a sanitizer's, the
   // fuzzer's) would otherwise run here. So must a stop signal the parent catches (a chapter's Ctrl-C); one it ignores
@@ -363,19 +396,25 @@ long sendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& paren
                                  aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
                                      (uvs ? 0u : unsigned(aiComponent_TEXCOORDS)) |
                                      aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS | aiComponent_TEXTURES |
-                                     aiComponent_LIGHTS | aiComponent_CAMERAS | aiComponent_MATERIALS);
+                                     aiComponent_LIGHTS | aiComponent_CAMERAS |
+                                     (materialsFrom ? 0u : unsigned(aiComponent_MATERIALS)));
     // (Not Assimp's JoinIdenticalVertices: on a million-triangle PLY it took 15 s and 300 MB more than the reading
     // itself, 2 s and 83 MB. OBJ files are welded by the parent instead.)
     const unsigned flags = aiProcess_ValidateDataStructure | aiProcess_RemoveComponent | aiProcess_Triangulate;
     // From memory, with the format named: Assimp then uses that one importer and opens no other file.
+    // (With the file's materials, from the file itself: the OBJ's MTL beside it is then read too.)
     const aiScene* scene =
-        importer->ReadFileFromMemory(bytes.data(), bytes.size(), flags, format == MeshFormat::Obj ? "obj" : "ply");
+        materialsFrom ? importer->ReadFile(*materialsFrom, flags)
+                      : importer->ReadFileFromMemory(bytes.data(), bytes.size(), flags,
+                                                     format == MeshFormat::Obj ? "obj" : "ply");
     long meshes = 0;
     if (!scene) {
       const char* message = importer->GetErrorString();
       sendError(out, kLibraryError, message ? message : "");
     } else if (scene->mRootNode) {
       meshes = sendNode(*scene, *scene->mRootNode, aiMatrix4x4(), out);
+      if (meshes >= 0 && materialsFrom)
+        sendMaterials(*scene, out);
     }
     if (meshes >= 0) {
       out.put(kEndTag);
@@ -395,20 +434,7 @@ class PipeReader {
 public:
   explicit PipeReader(int fd) : fd_(fd) {}
   // Fills `data` with `size` bytes; false if the stream ends first.
-  bool get(void* data, std::size_t size)
-  {
-    auto* at = static_cast<char*>(data);
-    while (size > 0) {
-      const ssize_t n = ::read(fd_, at, size);
-      if (n < 0 && errno == EINTR)
-        continue;
-      if (n <= 0)
-        return false;
-      at += n;
-      size -= std::size_t(n);
-    }
-    return true;
-  }
+  bool get(void* data, std::size_t size) { return readAll(fd_, data, size); }
 
 private:
   int fd_;
@@ -527,7 +553,7 @@ void receive(PipeReader& in, MeshData& data, std::size_t fileBytes, const std::s
 {
   const std::uint64_t limit = std::min<std::uint64_t>(8 * std::uint64_t(fileBytes) + 4096, UINT32_MAX);
   auto garbled = [](const std::string& what) { return StreamFault{true, "garbled: " + what}; };
-  std::uint64_t meshes = 0, faces = 0;
+  std::uint64_t meshes = 0, faces = 0, largestMaterial = 0;
   std::vector<aiVector3D> vectors;
   std::vector<WireFace> wireFaces;
   for (;;) {
@@ -540,7 +566,34 @@ void receive(PipeReader& in, MeshData& data, std::size_t fileBytes, const std::s
         throw StreamFault{false, "cut short"};
       if (sent != meshes)
         throw garbled("it ends after " + std::to_string(sent) + " meshes, of " + std::to_string(meshes) + " sent");
+      if (!data.materials.empty() && largestMaterial >= data.materials.size())
+        throw MeshError(name + ": a part names material " + std::to_string(largestMaterial) + " of " +
+                        std::to_string(data.materials.size()));
       return;
+    }
+    if (tag == kMaterialTag) {
+      WireMaterial m{};
+      if (!in.get(&m, sizeof m))
+        throw StreamFault{false, "cut short"};
+      if (m.nameBytes > kMaxErrorBytes || m.textureBytes > kMaxErrorBytes || data.materials.size() >= limit)
+        throw garbled("a material record out of range");
+      std::string text(std::size_t(m.nameBytes) + m.textureBytes, '\0');
+      if (!in.get(text.data(), text.size()))
+        throw StreamFault{false, "cut short"};
+      FileMaterial fm;
+      fm.name = text.substr(0, m.nameBytes);
+      fm.diffuseMap = text.substr(m.nameBytes);
+      fm.diffuse = Color(m.kd[0], m.kd[1], m.kd[2]);
+      fm.specular = Color(m.ks[0], m.ks[1], m.ks[2]);
+      fm.emission = Color(m.ke[0], m.ke[1], m.ke[2]);
+      fm.shininess = Real(m.ns);
+      for (const Color& c : {fm.diffuse, fm.specular, fm.emission})
+        if (!isFinite(c) || c.r < 0 || c.g < 0 || c.b < 0)
+          throw MeshError(name + ": material '" + fm.name + "' has a colour that is negative or not finite");
+      if (!std::isfinite(fm.shininess) || fm.shininess < 0)
+        throw MeshError(name + ": material '" + fm.name + "' has a shininess (Ns) that is negative or not finite");
+      data.materials.push_back(std::move(fm));
+      continue;
     }
     if (tag == kErrorTag) {
       std::uint32_t fields[2] = {};
@@ -608,12 +661,15 @@ void receive(PipeReader& in, MeshData& data, std::size_t fileBytes, const std::s
         tri[std::size_t(c)] = std::uint32_t(first + index);
       }
       data.triangles.push_back(tri);
+      data.triangleMaterials.push_back(mesh.material);
     });
+    largestMaterial = std::max<std::uint64_t>(largestMaterial, mesh.material);
   }
 }
 
 // Assimp on `bytes`, in a child process (see above), and its answer checked. @throws MeshError.
-MeshData readInChild(std::span<const char> bytes, MeshFormat format, const std::string& name, bool uvs)
+MeshData readInChild(std::span<const char> bytes, MeshFormat format, const std::string& name, bool uvs,
+                     const std::string* materialsFrom)
 {
   const std::string formatName = format == MeshFormat::Obj ? "OBJ" : "PLY";
   int fds[2];
@@ -631,7 +687,7 @@ MeshData readInChild(std::span<const char> bytes, MeshFormat format, const std::
   }
   if (pid == 0) {
     ::close(fds[0]);
-    runReader(fds[1], bytes, format, uvs);
+    runReader(fds[1], bytes, format, uvs, materialsFrom);
   }
   ::close(fds[1]);
   ReaderProcess child(pid, fds[0]);
@@ -667,7 +723,8 @@ MeshFormat meshFormatOf(const std::string& path)
                   "': raylife reads .obj and .ply files");
 }
 
-MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std::string& name, bool uvs)
+MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std::string& name, bool uvs,
+                       const std::string* materialsFrom)
 {
   if (bytes.empty())
     throw MeshError(name + ": the file is empty");
@@ -682,7 +739,9 @@ MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std
         throw MeshError(name + ": cannot read it as OBJ: a control character (byte " + std::to_string(int(c)) +
                         ") at byte " + std::to_string(i) + ": OBJ is text");
     }
-  MeshData data = readInChild(bytes, format, name, uvs);
+  MeshData data = readInChild(bytes, format, name, uvs, materialsFrom);
+  if (!materialsFrom)
+    data.triangleMaterials.clear();
   if (data.uvs.size() != data.positions.size())
     data.uvs.clear(); // some parts had texture coordinates and some did not: none
   if (data.normals.size() != data.positions.size() ||
@@ -698,7 +757,7 @@ MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std
   return data;
 }
 
-MeshData readMeshFile(const std::string& path, bool uvs)
+MeshData readMeshFile(const std::string& path, bool uvs, bool materials)
 {
   const MeshFormat format = meshFormatOf(path);
   namespace fs = std::filesystem;
@@ -717,7 +776,7 @@ MeshData readMeshFile(const std::string& path, bool uvs)
   }
   if (in.bad())
     throw MeshError(path + ": cannot read the mesh file: " + std::strerror(errno));
-  MeshData data = parseMeshData(bytes, format, path, uvs);
+  MeshData data = parseMeshData(bytes, format, path, uvs, materials ? &path : nullptr);
   std::vector<char>().swap(bytes);
 #ifdef __GLIBC__
   // The file's bytes and Assimp's scene are freed but glibc keeps much of it; hand it back, so that the memory a

@@ -22,6 +22,17 @@
 
 namespace raylife {
 
+/// A material as a mesh file states it (an OBJ's MTL, through Assimp): what chapter 14's `"material": "from-file"`
+/// maps to the nearest raylife material.
+struct FileMaterial {
+  std::string name;        ///< Its name in the file.
+  Color diffuse{0};        ///< Kd, ≥ 0.
+  Color specular{0};       ///< Ks, ≥ 0.
+  Color emission{0};       ///< Ke, ≥ 0.
+  Real shininess = 0;      ///< Ns (a Phong exponent), ≥ 0.
+  std::string diffuseMap;  ///< map_Kd as the file writes it (relative to the file's folder), or empty.
+};
+
 /// A mesh as a file holds it: vertex positions, optional vertex normals, and triangles as index triples into them.
 struct MeshData {
   std::vector<Vec3> positions;                          ///< Every vertex, finite.
@@ -32,6 +43,10 @@ struct MeshData {
   /// Empty, or one (u, v) per position (chapter 14: OBJ `vt`, PLY `u v` or `s t`; v = 0 the image's bottom row),
   /// finite; read only when asked for. Empty when only some of the file's parts have them.
   std::vector<Vec2> uvs;
+  /// The file's materials, read only when asked for (readMeshFile's `materials`); empty otherwise.
+  std::vector<FileMaterial> materials;
+  /// With the materials: each triangle's, an index into `materials`, as `triangles` is ordered; empty otherwise.
+  std::vector<std::uint32_t> triangleMaterials;
 };
 
 /// A fault in a mesh file. what() is the whole message: "FILE: what is wrong" (with the line where the
@@ -63,10 +78,14 @@ MeshFormat meshFormatOf(const std::string& path);
 /// reader that crashed on it or could not be started.
 /// @param uvs also read the texture coordinates (MeshData::uvs), when a textured material needs them; an OBJ's
 /// corners are then joined only where their (u, v) agree too.
-MeshData readMeshFile(const std::string& path, bool uvs = false);
+/// @param materials also read the file's materials (MeshData::materials, triangleMaterials): an OBJ's MTL file, which
+/// the library then opens beside it.
+MeshData readMeshFile(const std::string& path, bool uvs = false, bool materials = false);
 
-/// readMeshFile on bytes already in memory, `name` used in messages only (the fuzz target's entry). Never reads
-/// another file (an OBJ's material library is ignored). @throws MeshError.
-MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std::string& name, bool uvs = false);
+/// readMeshFile on bytes already in memory, `name` used in messages only (the fuzz target's entry). Reads no other
+/// file (an OBJ's material library is ignored) unless `materialsFrom` names the file the bytes came from: the
+/// library then reads that file and what it names, and the file's materials come back too. @throws MeshError.
+MeshData parseMeshData(std::span<const char> bytes, MeshFormat format, const std::string& name, bool uvs = false,
+                       const std::string* materialsFrom = nullptr);
 
 } // namespace raylife

@@ -857,6 +857,57 @@ std::vector<Vec3> areaWeightedNormals(const std::vector<Vec3>& positions,
 }
 // [vertexNormals]
 
+// [fromFile]
+// A mesh file's own materials (chapter 14's "material": "from-file"), appended to the scene's as the nearest raylife
+// material each: Kd (or map_Kd, an image beside the file) a diffuse colour; Ks and Ns a glossy one where the file's
+// specular outweighs its diffuse (roughness from the Phong exponent, sqrt(2/(Ns + 2))); Ke an emission. Colours above
+// 1 are clamped. One warning line says what was approximated. Returns the index of the first appended material.
+int addFileMaterials(const Reader& r, const Path& path, const MeshData& data, const std::filesystem::path& folder,
+                     const std::string& file, Scene& scene)
+{
+  if (data.materials.empty() || data.triangleMaterials.size() != data.triangles.size())
+    r.fail(path / "material", "\"from-file\": " + file + " names no materials (an OBJ's mtllib, with its usemtl)");
+  const int first = int(scene.materials.size());
+  std::size_t glossy = 0, clamped = 0, specularDropped = 0;
+  for (const FileMaterial& fm : data.materials) {
+    Material m;
+    m.name = file + ":" + fm.name;
+    const Real kd = maxComponent(fm.diffuse), ks = maxComponent(fm.specular);
+    if (ks > kd && ks > Real(0.05)) {
+      m.type = MaterialType::Glossy;
+      m.color = glm::min(fm.specular, Color(1));
+      m.roughness = std::clamp(std::sqrt(2 / (fm.shininess + 2)), Real(1e-3), Real(1));
+      ++glossy;
+    } else {
+      m.color = glm::min(fm.diffuse, Color(1));
+      specularDropped += ks > 0;
+    }
+    clamped += glm::any(glm::greaterThan(fm.diffuse, Color(1))) || glm::any(glm::greaterThan(fm.specular, Color(1)));
+    m.emission = fm.emission;
+    if (!fm.diffuseMap.empty() && m.type == MaterialType::Diffuse) {
+      std::string map = fm.diffuseMap;
+      std::replace(map.begin(), map.end(), '\\', '/'); // (Windows separators, as some MTL files have)
+      const std::string resolved = (folder / map).string();
+      try {
+        auto image = std::make_shared<const TexelImage>(readTextureImage(resolved, ImageEncoding::Srgb));
+        m.colorTexture = std::make_shared<const Texture>(std::move(image), TextureFilter::Bilinear);
+        m.color = m.colorTexture->mean();
+      } catch (const ImageFileError& e) {
+        r.fail(path / "material", std::string("\"from-file\": material '") + fm.name + "' of " + file + ": " + e.what());
+      }
+    }
+    scene.materials.push_back(std::move(m));
+  }
+  scene.warnings.push_back(printable(
+      r.where(path / "material") + ": " + std::to_string(data.materials.size()) + " materials from " + file +
+      ", approximated: " + std::to_string(glossy) + " as glossy (Ks, Ns), " +
+      std::to_string(data.materials.size() - glossy) + " as diffuse (Kd, map_Kd; Ks of " +
+      std::to_string(specularDropped) + " dropped), Ka and illum ignored" +
+      (clamped ? ", " + std::to_string(clamped) + " with colours above 1 clamped" : "")));
+  return first;
+}
+// [fromFile]
+
 // One entry of "meshes": read (from its file or inline), transformed, checked, and appended to the scene.
 template <class MaterialOf>
 void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& materialOf, Scene& scene,
@@ -873,7 +924,9 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
   if (!fromFile && !j.contains("vertices"))
     r.fail(path, "a mesh needs \"file\" (an .obj or .ply file) or inline \"vertices\" and \"triangles\"");
   Mesh mesh;
-  mesh.material = materialOf(j, path);
+  // "from-file" (chapter 14): each part's material is the file's own (an OBJ's MTL), mapped to the nearest raylife one.
+  const bool materialsFromFile = fromFile && j.contains("material") && j["material"] == "from-file";
+  mesh.material = materialsFromFile ? 0 : materialOf(j, path);
   if (j.contains("smooth")) {
     if (!j["smooth"].is_boolean())
       r.fail(path / "smooth", "expected true or false, got " + Reader::describe(j["smooth"]));
@@ -890,11 +943,14 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
     const std::filesystem::path resolved = std::filesystem::path(sceneFile).parent_path() / file;
     mesh.source = file;
     try {
-      const Material& m = scene.materials[std::size_t(mesh.material)];
-      data = readMeshFile(resolved.string(), m.colorTexture || m.emissionTexture);
+      const bool textured = materialsFromFile || scene.materials[std::size_t(mesh.material)].colorTexture ||
+                            scene.materials[std::size_t(mesh.material)].emissionTexture;
+      data = readMeshFile(resolved.string(), textured, materialsFromFile);
     } catch (const MeshError& e) {
       r.fail(path / "file", e.what());
     }
+    if (materialsFromFile)
+      mesh.material = addFileMaterials(r, path, data, resolved.parent_path(), file, scene);
   } else {
     mesh.source = "inline";
     data = readInlineMesh(r, j, path);
@@ -922,8 +978,10 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
   mesh.firstTriangle = std::uint32_t(scene.triangles.size());
   std::size_t degenerate = 0;
   std::vector<std::array<std::uint32_t, 3>> kept;
+  std::vector<int> keptMaterial; // with the file's materials: each kept triangle's index into scene.materials
   kept.reserve(data.triangles.size());
-  for (std::array<std::uint32_t, 3> tri : data.triangles) {
+  for (std::size_t k = 0; k < data.triangles.size(); ++k) {
+    std::array<std::uint32_t, 3> tri = data.triangles[k];
     if (transform.mirrors())
       std::swap(tri[1], tri[2]);
     if (!(triangleDoubleArea(data.positions[tri[0]], data.positions[tri[1]], data.positions[tri[2]]) > 0)) {
@@ -931,6 +989,8 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
       continue;
     }
     kept.push_back(tri);
+    if (!data.triangleMaterials.empty())
+      keptMaterial.push_back(mesh.material + int(data.triangleMaterials[k]));
   }
   if (kept.empty())
     r.fail(path, "every one of its " + std::to_string(data.triangles.size()) +
@@ -970,8 +1030,11 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
   }
 
   const auto meshIndex = std::uint32_t(scene.meshes.size());
-  for (const auto& tri : kept)
-    scene.triangles.push_back(Triangle{{base + tri[0], base + tri[1], base + tri[2]}, mesh.material, meshIndex});
+  for (std::size_t k = 0; k < kept.size(); ++k) {
+    const auto& tri = kept[k];
+    const int material = keptMaterial.empty() ? mesh.material : keptMaterial[k];
+    scene.triangles.push_back(Triangle{{base + tri[0], base + tri[1], base + tri[2]}, material, meshIndex});
+  }
   scene.vertices.insert(scene.vertices.end(), data.positions.begin(), data.positions.end());
   mesh.triangleCount = std::uint32_t(kept.size());
   scene.meshes.push_back(std::move(mesh));

@@ -3,6 +3,7 @@
 #include "scene/texture_file.h"
 
 #include "render/image_io.h"
+#include "scene/pipe_io.h"
 
 #include <stb/stb_image.h>
 
@@ -31,38 +32,6 @@ std::string lowerExtension(const std::string& path)
   std::string e = std::filesystem::path(path).extension().string();
   std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
   return e;
-}
-
-// Writes all of `size` bytes, or returns false.
-bool writeAll(int fd, const void* data, std::size_t size)
-{
-  const char* at = static_cast<const char*>(data);
-  while (size > 0) {
-    const ssize_t n = ::write(fd, at, size);
-    if (n < 0 && errno == EINTR)
-      continue;
-    if (n <= 0)
-      return false;
-    at += n;
-    size -= std::size_t(n);
-  }
-  return true;
-}
-
-// Reads all of `size` bytes, or returns false (the stream ended first).
-bool readAll(int fd, void* data, std::size_t size)
-{
-  char* at = static_cast<char*>(data);
-  while (size > 0) {
-    const ssize_t n = ::read(fd, at, size);
-    if (n < 0 && errno == EINTR)
-      continue;
-    if (n <= 0)
-      return false;
-    at += n;
-    size -= std::size_t(n);
-  }
-  return true;
 }
 
 // The child's answer: a header, then (status 0) width·height·3 floats, or (status 1) `width` bytes of message.

@@ -184,7 +184,7 @@ int main(int argc, char** argv)
                                          "cones: mip-map levels chosen by ray cones; texel: the finest level only",
                                          "", "cones", {"cones", "texel"}}}};
   /// [chapter]
-  auto makeTrace = [&chapter](const Scene& scene, const ChapterOptions& options) -> TraceFunction {
+  auto makeTrace = [](const Scene& scene, const ChapterOptions& options) -> TraceFunction {
     auto sampler = std::make_shared<const LightSampler>(scene);
     Lights lights{sampler.get(), scene.environment.get(), 0, !sampler->empty()};
     if (lights.environment && lights.environment->luminanceIntegral() > 0) {
@@ -197,7 +197,6 @@ int main(int argc, char** argv)
     const Real pixelSpread = options.choice("--texture-filter") == "cones"
                                  ? 2 * std::tan(scene.camera.vfovDeg * kPi / 360) / Real(scene.camera.height)
                                  : 0;
-    (void)chapter;
     return [lights, sampler, heuristic = heuristicOption(options), pixelSpread](
                const Scene& s, const Ray& ray, Sampler& rng, int maxDepth) {
       return trace(lights, heuristic, pixelSpread, s, ray, rng, maxDepth);

@@ -544,3 +544,55 @@ TEST_CASE("mip-mapping by ray cones: a checkerboard to the horizon is its mean c
   CHECK(cones < 0.03);
   CHECK(texel > 0.1); // the test can fail: without mip-maps the far floor is noise
 }
+
+TEST_CASE("\"material\": \"from-file\" takes an OBJ's MTL: Kd, map_Kd, Ks and Ns, Ke, with one line on what was approximated")
+{
+  TempDir dir("mtl");
+  fs::copy_file(kTextures + "texels_4x2.png", dir.path / "t.png");
+  dir.file("quad.mtl", "newmtl paper\nKd 0.5 0.5 0.5\nmap_Kd t.png\n"
+                       "newmtl shiny\nKd 0.05 0.05 0.05\nKs 0.9 0.8 0.7\nNs 198\n"
+                       "newmtl lamp\nKd 0 0 0\nKe 4 4 4\n");
+  dir.file("quad.obj", "mtllib quad.mtl\nv -2 -1 0\nv 2 -1 0\nv 2 1 0\nv -2 1 0\nv -2 -1 1\nv 2 -1 1\n"
+                       "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                       "usemtl paper\nf 1/1 2/2 3/3\nusemtl shiny\nf 1/1 3/3 4/4\nusemtl lamp\nf 1 2 6\n");
+  const std::string scene = dir.file("s.json", R"({"camera": {"eye": [0, 0, 5], "focal": [0, 0, 0]},
+    "meshes": [{"file": "quad.obj", "material": "from-file"}]})");
+  const Scene s = loadScene(scene);
+  REQUIRE(s.triangles.size() == 3);
+  auto materialOf = [&](std::size_t t) -> const Material& { return s.materials[std::size_t(s.triangles[t].material)]; };
+  // Which triangle is which: by their materials' names (the reader may reorder the parts).
+  int found = 0;
+  for (std::size_t t = 0; t < 3; ++t) {
+    const Material& m = materialOf(t);
+    CAPTURE(m.name);
+    if (m.name == "quad.obj:paper") {
+      REQUIRE(m.colorTexture);
+      CHECK(m.type == MaterialType::Diffuse);
+      CHECK(m.colorTexture->size() == glm::ivec2(4, 2));
+      ++found;
+    } else if (m.name == "quad.obj:shiny") {
+      CHECK(m.type == MaterialType::Glossy);
+      CHECK(double(m.color.r) == Approx(0.9));
+      CHECK(double(m.roughness) == Approx(std::sqrt(2.0 / 200)).epsilon(1e-5));
+      ++found;
+    } else if (m.name == "quad.obj:lamp") {
+      CHECK(m.isEmissive());
+      CHECK(double(m.emission.g) == Approx(4));
+      ++found;
+    }
+  }
+  CHECK(found == 3);
+  REQUIRE(s.warnings.size() == 1);
+  INFO(s.warnings[0]);
+  CHECK(s.warnings[0].find("materials from quad.obj, approximated: 1 as glossy") != std::string::npos);
+  // A map_Kd that is missing: one line naming the scene, the place, the material and the image.
+  dir.file("quad.mtl", "newmtl paper\nmap_Kd missing.png\n");
+  try {
+    loadScene(scene);
+    FAIL("no error");
+  } catch (const SceneError& e) {
+    const std::string what = e.what();
+    CHECK(what.find("/meshes/0/material") != std::string::npos);
+    CHECK(what.find("missing.png") != std::string::npos);
+  }
+}
