@@ -126,13 +126,13 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
        "scene.json:11:5: /spheres/1/center: missing key 'center'"},
       {"an unknown key", withFault(R"("radius": 1,)", R"("radius": 1, "colour": [1, 0, 0],)"),
        "scene.json:11:51: /spheres/1/colour: unknown key 'colour'; known keys here: 'center', 'radius', 'material', "
-       "'velocity'"},
+       "'velocity', 'rotate'"},
       {"a misspelt key", withFault(R"("radius": 1,)", R"("raduis": 1,)"),
        "scene.json:11:38: /spheres/1/raduis: unknown key 'raduis' (did you mean 'radius'?); known keys here: "
-       "'center', 'radius', 'material', 'velocity'"},
+       "'center', 'radius', 'material', 'velocity', 'rotate'"},
       {"a misspelt top-level key", withFault(R"("lights")", R"("light")"),
        "scene.json:13:12: /light: unknown key 'light' (did you mean 'lights'?); known keys here: 'camera', "
-       "'background', 'ambient', 'materials', 'spheres', 'meshes', 'lights'"},
+       "'background', 'ambient', 'materials', 'spheres', 'meshes', 'lights', 'environment'"},
       {"a key given twice", withFault(R"("radius": 1,)", R"("radius": 1, "radius": 2,)"),
        "scene.json:11:41: /spheres/1/radius: the key 'radius' is given twice in one object (first at 11:28); give "
        "each key once"},

@@ -545,7 +545,7 @@ TEST_CASE("mip-mapping by ray cones: a checkerboard to the horizon is its mean c
   CHECK(texel > 0.1); // the test can fail: without mip-maps the far floor is noise
 }
 
-TEST_CASE("\"material\": \"from-file\" takes an OBJ's MTL: Kd, map_Kd, Ks and Ns, Ke, with one line on what was approximated")
+TEST_CASE("material from-file maps an OBJ's MTL (Kd and map_Kd to diffuse and Ks and Ns to glossy and Ke to emission)")
 {
   TempDir dir("mtl");
   fs::copy_file(kTextures + "texels_4x2.png", dir.path / "t.png");
