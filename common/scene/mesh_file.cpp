@@ -672,25 +672,11 @@ MeshData readInChild(std::span<const char> bytes, MeshFormat format, const std::
                      const std::string* materialsFrom)
 {
   const std::string formatName = format == MeshFormat::Obj ? "OBJ" : "PLY";
-  int fds[2];
-  if (::pipe2(fds, O_CLOEXEC) != 0)
-    throw MeshError(name + ": cannot start the mesh reader: " + std::strerror(errno));
-#ifdef F_SETPIPE_SZ
-  ::fcntl(fds[1], F_SETPIPE_SZ, 1 << 20); // fewer, larger transfers for a big model (best effort)
-#endif
-  const pid_t pid = ::fork();
-  if (pid < 0) {
-    const int error = errno;
-    ::close(fds[0]);
-    ::close(fds[1]);
-    throw MeshError(name + ": cannot start the mesh reader: " + std::strerror(error));
-  }
-  if (pid == 0) {
-    ::close(fds[0]);
-    runReader(fds[1], bytes, format, uvs, materialsFrom);
-  }
-  ::close(fds[1]);
-  ReaderProcess child(pid, fds[0]);
+  // (A pipe of 1 MiB: fewer, larger transfers for a big model.)
+  const auto [fd, pid] = forkWithPipe<MeshError>(
+      name + ": cannot start the mesh reader: ",
+      [&](int writeEnd) { runReader(writeEnd, bytes, format, uvs, materialsFrom); }, 1 << 20);
+  ReaderProcess child(pid, fd);
   PipeReader in(child.fd());
   MeshData data;
   try {

@@ -161,21 +161,8 @@ TexelImage decodeStbImage(std::span<const unsigned char> bytes, ImageEncoding en
     throw ImageFileError(name + ": the file is larger than 2 GiB");
   if (signatureOf(bytes).empty())
     throw ImageFileError(name + ": not a PNG, JPEG or Radiance HDR image (its first bytes are none of theirs)");
-  int fds[2];
-  if (::pipe2(fds, O_CLOEXEC) != 0)
-    throw ImageFileError(name + ": cannot start the image reader: " + std::strerror(errno));
-  const pid_t pid = ::fork();
-  if (pid < 0) {
-    const int error = errno;
-    ::close(fds[0]);
-    ::close(fds[1]);
-    throw ImageFileError(name + ": cannot start the image reader: " + std::strerror(error));
-  }
-  if (pid == 0) {
-    ::close(fds[0]);
-    decodeInChild(fds[1], bytes, encoding);
-  }
-  ::close(fds[1]);
+  const auto [fd, pid] = forkWithPipe<ImageFileError>(name + ": cannot start the image reader: ",
+                                                      [&](int writeEnd) { decodeInChild(writeEnd, bytes, encoding); });
   // The parent: the header, then the texels or the message; the child reaped whatever happens.
   auto reap = [pid](bool kill) {
     if (kill)
@@ -188,20 +175,20 @@ TexelImage decodeStbImage(std::span<const unsigned char> bytes, ImageEncoding en
   WireHeader header{};
   TexelImage image;
   std::string message;
-  bool whole = readAll(fds[0], &header, sizeof header);
+  bool whole = readAll(fd, &header, sizeof header);
   if (whole && header.status == 1) {
     message.resize(std::min<std::uint32_t>(header.width, 1024));
-    whole = readAll(fds[0], message.data(), message.size());
+    whole = readAll(fd, message.data(), message.size());
   } else if (whole && header.status == 0 && header.width > 0 && header.height > 0 &&
              (long long)header.width * header.height <= kMaxTexels) {
     image.width = int(header.width);
     image.height = int(header.height);
     image.rgb.resize(std::size_t(header.width) * header.height * 3);
-    whole = readAll(fds[0], image.rgb.data(), image.rgb.size() * sizeof(float));
+    whole = readAll(fd, image.rgb.data(), image.rgb.size() * sizeof(float));
   } else {
     whole = false;
   }
-  ::close(fds[0]);
+  ::close(fd);
   const int status = reap(!whole);
   if (!whole || !WIFEXITED(status) || WEXITSTATUS(status) != 0)
     throw ImageFileError(name + ": " + (WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) != 0)
