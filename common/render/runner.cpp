@@ -30,7 +30,8 @@ std::string describeReads(unsigned uses)
       {kUsesAmbient, "the ambient term"},   {kUsesBackground, "the background"}, {kUsesEmission, "emission"},
       {kUsesMirror, "mirrors"},             {kUsesGlass, "glass"},              {kUsesGlossy, "glossy materials"},
       {kUsesMetal, "metals"},               {kUsesLens, "the camera's lens"},   {kUsesMotion, "the spheres' velocities"},
-      {kUsesEnvironment, "the environment map"}, {kUsesTextures, "textures"}};
+      {kUsesEnvironment, "the environment map"}, {kUsesTextures, "textures"},
+      {kUsesMedia, "participating media"}};
   for (const auto& [flag, what] : features)
     if (uses & flag)
       parts.push_back(what);
@@ -89,6 +90,8 @@ std::string describeIgnored(const Scene& scene, unsigned uses)
       parts.push_back("the reflection and refraction of " + plural(asDiffuse, "material", "materials") +
                       " (shaded as diffuse)");
   }
+  if (!(uses & kUsesMedia) && !scene.media.empty())
+    parts.push_back(plural(scene.media.size(), "medium", "media") + " (interfaces are crossed as if absent)");
   if (!(uses & kUsesLens) && scene.camera.aperture > 0)
     parts.push_back("the camera's aperture (a pinhole here)");
   if (!(uses & kUsesMotion) && scene.hasMotion()) {

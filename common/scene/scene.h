@@ -9,6 +9,7 @@
 #include "shading/light.h"
 #include "shading/environment.h"
 #include "shading/material.h"
+#include "shading/medium.h"
 #include "geometry/ray.h"
 #include "geometry/sphere.h"
 #include "geometry/sphere_lanes.h"
@@ -101,6 +102,28 @@ struct TracedOcclusion {
   BvhWork work;          ///< Boxes and primitives tested until the answer was known.
 };
 
+/// The media on the two sides of a closed shape's boundary (chapter 15): "interior" and "exterior" in the scene
+/// file, each an index into Scene::media or kVacuum.
+///
+/// Contract: a ray that leaves a boundary point along a direction d is in `exterior` when d points to the side of
+/// the geometric normal (Hit::geometricNormal: out of a sphere; for a mesh, the loader swaps the two when its
+/// triangles wind inwards), and in `interior` otherwise. A shape that names neither key has `changes` false: a ray
+/// crossing it stays in the medium it was in.
+struct MediumInterface {
+  int interior = kVacuum; ///< The medium inside the shape.
+  int exterior = kVacuum; ///< The medium outside it (the scene's top-level medium unless the file says otherwise).
+  bool changes = false;   ///< True when the shape names "interior" or "exterior".
+
+  /// The medium a ray leaving the boundary along `direction` travels in, given the boundary's geometric normal
+  /// and the medium it was in (`current`, kept when the shape changes nothing).
+  int after(const Vec3& geometricNormal, const Vec3& direction, int current) const
+  {
+    if (!changes)
+      return current;
+    return glm::dot(direction, geometricNormal) > 0 ? exterior : interior;
+  }
+};
+
 /// A triangle mesh of the scene file: which of Scene::triangles are its own, and how it is shaded.
 struct Mesh {
   std::string source;               ///< The file it was read from, or "inline" (for messages and the plan).
@@ -109,6 +132,8 @@ struct Mesh {
   std::uint32_t firstTriangle = 0;  ///< Its triangles are Scene::triangles[firstTriangle, + triangleCount).
   std::uint32_t triangleCount = 0;  ///< ≥ 1.
   bool hasUvs = false;              ///< True when its vertices have texture coordinates (Scene::vertexUvs).
+  /// Its media (chapter 15); a mesh that sets them is closed and consistently wound (the loader checks).
+  MediumInterface media;
 };
 
 /// A loaded, validated scene. Immutable while rendering, so it is shared by all threads without locks.
@@ -139,6 +164,23 @@ struct Scene {
   /// have them (Mesh::hasUvs); empty when none has.
   std::vector<Vec2> vertexUvs;
   std::vector<std::string> warnings; ///< Non-fatal remarks from the loader (an unused material, say).
+
+  // Participating media (chapter 15; earlier chapters ignore them).
+  std::vector<Medium> media;       ///< The scene file's "media", in its order; empty without.
+  int medium = kVacuum;            ///< The top-level "medium": what fills space outside every shape.
+  int cameraMedium = kVacuum;      ///< The medium the camera is in: "camera.medium", else `medium`.
+  /// One per sphere (indexed as `spheres`) when any sphere names "interior" or "exterior"; else empty.
+  std::vector<MediumInterface> sphereMedia;
+
+  /// The media on the two sides of primitive `primitive` (a sphere's, or a triangle's mesh's): `changes` false
+  /// for a shape that names none.
+  MediumInterface mediumInterface(int primitive) const
+  {
+    const auto p = std::size_t(primitive);
+    if (p < spheres.size())
+      return sphereMedia.empty() ? MediumInterface{} : sphereMedia[p];
+    return meshes[triangles[p - spheres.size()].mesh].media;
+  }
 
   /// The BVH over the spheres and triangles, or an empty one. Filled by buildAccelerator(), which the loader calls.
   /// Contract: intersect and occluded use it only while it covers exactly primitiveCount() primitives (see

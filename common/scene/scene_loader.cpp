@@ -566,7 +566,7 @@ using Path = Reader::Path;
 void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& cam, bool sizeGiven)
 {
   r.object(j, path);
-  r.onlyKeys(j, path, {"eye", "focal", "up", "vfov", "width", "height", "aperture", "focus"});
+  r.onlyKeys(j, path, {"eye", "focal", "up", "vfov", "width", "height", "aperture", "focus", "medium"});
   cam.eye = r.point(r.required(j, path, "eye"), path / "eye");
   cam.focal = r.point(r.required(j, path, "focal"), path / "focal");
   if (j.contains("up"))
@@ -681,7 +681,7 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
   Material m;
   m.name = name;
   const std::string type = r.string(r.required(j, path, "type"), path / "type");
-  const std::vector<std::string> types = {"diffuse", "mirror", "glass", "glossy", "metal"};
+  const std::vector<std::string> types = {"diffuse", "mirror", "glass", "glossy", "metal", "interface"};
   if (type == "diffuse")
     m.type = MaterialType::Diffuse;
   else if (type == "mirror")
@@ -692,12 +692,21 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
     m.type = MaterialType::Glossy;
   else if (type == "metal")
     m.type = MaterialType::Metal;
+  else if (type == "interface")
+    m.type = MaterialType::Interface;
   else
     r.fail(path / "type", "unknown material type '" + shorten(type) + "'" + suggestion(type, types) + "; known types: " +
                               joinQuoted(types));
 
   // Each type takes only the keys that mean something for it, so a misplaced key is caught, not ignored.
   std::vector<std::string> keys = {"type", "color", "emission"};
+  if (m.type == MaterialType::Interface) { // chapter 15: a boundary between media, not a surface
+    if (j.contains("emission"))
+      r.fail(path / "emission", "an interface is not a surface and cannot emit (give the light its own shape)");
+    if (j.contains("color"))
+      r.fail(path / "color", "an interface is not a surface and has no colour (the media on its sides do the work)");
+    keys = {"type"};
+  }
   if (m.type == MaterialType::Glass)
     keys.push_back("ior");
   if (m.type == MaterialType::Glossy || m.type == MaterialType::Metal)
@@ -918,9 +927,10 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
   if (fromFile && j.contains("vertices"))
     r.fail(path, "a mesh has \"file\" and inline \"vertices\": give one or the other");
   if (fromFile)
-    r.onlyKeys(j, path, {"file", "material", "transform", "smooth"});
+    r.onlyKeys(j, path, {"file", "material", "transform", "smooth", "interior", "exterior"});
   else
-    r.onlyKeys(j, path, {"vertices", "triangles", "normals", "uvs", "material", "transform", "smooth"});
+    r.onlyKeys(j, path, {"vertices", "triangles", "normals", "uvs", "material", "transform", "smooth", "interior",
+                         "exterior"});
   if (!fromFile && !j.contains("vertices"))
     r.fail(path, "a mesh needs \"file\" (an .obj or .ply file) or inline \"vertices\" and \"triangles\"");
   Mesh mesh;
@@ -1040,6 +1050,154 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
   scene.meshes.push_back(std::move(mesh));
 }
 
+// ---- Participating media (chapter 15) ----
+
+// A coefficient per unit length: a number (grey) or [r, g, b], each finite and ≥ 0.
+Color readCoefficient(const Reader& r, const Json& j, const Path& path)
+{
+  if (j.is_number()) {
+    const Real v = r.number(j, path);
+    if (v < 0)
+      r.fail(path, "a coefficient per unit length must not be negative, got " + j.dump());
+    return Color(v);
+  }
+  return r.color(j, path, kInfinity, "a coefficient per unit length (a number or [r, g, b])");
+}
+
+// The scene's media by name, and how a shape names them.
+struct SceneMedia {
+  const Reader& r;
+  std::vector<std::string> names;
+  int topLevel = kVacuum;
+
+  // The medium named at `path` (a string, or null for vacuum).
+  int lookup(const Json& j, const Path& path) const
+  {
+    if (j.is_null())
+      return kVacuum;
+    const std::string name = r.string(j, path);
+    const auto found = std::find(names.begin(), names.end(), name);
+    if (found == names.end())
+      r.fail(path, "undefined medium '" + shorten(name) + "'" + suggestion(name, names) +
+                       (names.empty() ? "; the scene defines no \"media\"" : "; defined: " + joinQuoted(names)) +
+                       " (null: no medium)");
+    return int(found - names.begin());
+  }
+
+  // A shape's "interior" (default vacuum) and "exterior" (default the top-level medium).
+  MediumInterface interfaceOf(const Json& j, const Path& path) const
+  {
+    MediumInterface mi;
+    mi.changes = true;
+    mi.exterior = topLevel;
+    if (j.contains("interior"))
+      mi.interior = lookup(j["interior"], path / "interior");
+    if (j.contains("exterior"))
+      mi.exterior = lookup(j["exterior"], path / "exterior");
+    return mi;
+  }
+};
+
+// "media", "medium" and "camera.medium".
+SceneMedia readMedia(const Reader& r, const Json& root, const Path& top, Scene& scene)
+{
+  SceneMedia out{r, {}, kVacuum};
+  if (root.contains("media")) {
+    const Json& media = r.object(root["media"], top / "media");
+    for (auto it = media.begin(); it != media.end(); ++it) {
+      const Path p = top / "media" / it.key();
+      const Json& jm = r.object(it.value(), p);
+      r.onlyKeys(jm, p, {"sigma_a", "sigma_s", "g"});
+      Medium m;
+      m.name = it.key();
+      if (jm.contains("sigma_a"))
+        m.sigmaA = readCoefficient(r, jm["sigma_a"], p / "sigma_a");
+      if (jm.contains("sigma_s"))
+        m.sigmaS = readCoefficient(r, jm["sigma_s"], p / "sigma_s");
+      if (jm.contains("g")) {
+        m.g = r.number(jm["g"], p / "g");
+        if (!(m.g > -1 && m.g < 1))
+          r.fail(p / "g", "the Henyey-Greenstein g must lie strictly between -1 and 1, got " + jm["g"].dump());
+      }
+      scene.media.push_back(m);
+      out.names.push_back(it.key());
+    }
+  }
+  if (root.contains("medium"))
+    out.topLevel = out.lookup(root["medium"], top / "medium");
+  scene.medium = out.topLevel;
+  scene.cameraMedium = out.topLevel;
+  if (const Json& cam = root.at("camera"); cam.contains("medium"))
+    scene.cameraMedium = out.lookup(cam["medium"], top / "camera" / "medium");
+  return out;
+}
+
+// A medium fills the inside of a closed surface: the mesh just read must be closed (every edge shared by exactly
+// two triangles, matched by vertex position, as files split vertices at seams) and wound consistently. Its media,
+// swapped when the triangles wind inwards (a negative signed volume), so that exterior lies on the normal's side.
+MediumInterface closedMeshMedia(const Reader& r, const Path& path, const Scene& scene, MediumInterface mi)
+{
+  const Mesh& mesh = scene.meshes.back();
+  struct Key {
+    Vec3 p;
+    bool operator==(const Key& o) const { return p == o.p; }
+  };
+  struct KeyHash {
+    std::size_t operator()(const Key& k) const
+    {
+      const std::hash<Real> h;
+      return h(k.p.x) ^ (h(k.p.y) * 0x9E3779B97F4A7C15ULL) ^ (h(k.p.z) * 0xC2B2AE3D27D4EB4FULL);
+    }
+  };
+  std::unordered_map<Key, std::uint32_t, KeyHash> ids; // position -> its canonical id
+  auto id = [&](std::uint32_t v) { return ids.emplace(Key{scene.vertices[v]}, std::uint32_t(ids.size())).first->second; };
+  std::unordered_map<std::uint64_t, int> directed; // (a, b) -> times an edge runs from a to b
+  double volume = 0;
+  for (std::uint32_t k = 0; k < mesh.triangleCount; ++k) {
+    const Triangle& tri = scene.triangles[mesh.firstTriangle + k];
+    const std::uint32_t v[3] = {id(tri.v[0]), id(tri.v[1]), id(tri.v[2])};
+    for (int e = 0; e < 3; ++e)
+      ++directed[(std::uint64_t(v[e]) << 32) | v[(e + 1) % 3]];
+    const auto [p0, p1, p2] = scene.triangleVertices(mesh.firstTriangle + k);
+    volume += double(glm::dot(p0, glm::cross(p1, p2)));
+  }
+  for (const auto& [edge, count] : directed) {
+    const auto a = std::uint32_t(edge >> 32), b = std::uint32_t(edge);
+    const auto reverse = directed.find((std::uint64_t(b) << 32) | a);
+    const int back = reverse == directed.end() ? 0 : reverse->second;
+    if (count == 1 && back == 1)
+      continue;
+    std::string why = back == 0 ? "an edge belongs to one triangle only: the mesh is open"
+                                : "an edge is shared by more than two triangles, or by two wound the same way";
+    r.fail(path / "interior", why + "; a medium fills only the inside of a closed, consistently wound surface "
+                                    "(\"interior\" and \"exterior\" need one)");
+  }
+  if (volume < 0)
+    std::swap(mi.interior, mi.exterior);
+  return mi;
+}
+
+// A camera that the loader can see is inside a sphere with media while camera.medium says otherwise: a warning
+// naming both (the innermost such sphere at time 0 decides).
+void warnCameraMedium(const Reader& r, const Path& top, Scene& scene)
+{
+  int inside = -1;
+  for (std::size_t i = 0; i < scene.sphereMedia.size(); ++i) {
+    const Sphere& s = scene.spheres[i];
+    if (scene.sphereMedia[i].changes && glm::length(scene.camera.eye - s.center) < s.radius &&
+        (inside < 0 || s.radius < scene.spheres[std::size_t(inside)].radius))
+      inside = int(i);
+  }
+  if (inside < 0 || scene.sphereMedia[std::size_t(inside)].interior == scene.cameraMedium)
+    return;
+  auto name = [&](int m) { return m == kVacuum ? std::string("no medium") : "'" + scene.media[std::size_t(m)].name + "'"; };
+  scene.warnings.push_back(printable(
+      r.where(top / "camera" / "eye") + ": the camera is inside /spheres/" + std::to_string(inside) +
+      ", whose interior is " + name(scene.sphereMedia[std::size_t(inside)].interior) + ", but camera.medium (or " +
+      "the top-level medium) puts it in " + name(scene.cameraMedium) + "; set \"camera\": {\"medium\": ...} to say " +
+      "where it is"));
+}
+
 } // namespace
 
 namespace {
@@ -1108,7 +1266,8 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
   scene.fileName = fileName;
   r.object(root, top);
   r.onlyKeys(root, top,
-             {"camera", "background", "ambient", "materials", "spheres", "meshes", "lights", "environment"});
+             {"camera", "background", "ambient", "materials", "spheres", "meshes", "lights", "environment", "media",
+              "medium"});
   ImageCache images{fileName, {}};
 
   readCamera(r, r.required(root, top, "camera"), top / "camera", scene.camera, sizeGiven);
@@ -1144,6 +1303,9 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
     }
   }
 
+  // Participating media (chapter 15): before the shapes, which name them.
+  const SceneMedia mediaOf = readMedia(r, root, top, scene);
+
   // Spheres (optional: a scene needs at least one sphere or one triangle).
   std::unordered_map<std::string, int> materialIndex; // name -> index, so a large scene loads in linear time
   for (std::size_t i = 0; i < materialNames.size(); ++i)
@@ -1167,7 +1329,7 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
     for (std::size_t i = 0; i < spheres.size(); ++i) {
       const Path p = top / "spheres" / i;
       const Json& js = r.object(spheres[i], p);
-      r.onlyKeys(js, p, {"center", "radius", "material", "velocity", "rotate"});
+      r.onlyKeys(js, p, {"center", "radius", "material", "velocity", "rotate", "interior", "exterior"});
       Sphere s;
       s.center = r.point(r.required(js, p, "center"), p / "center");
       s.radius = r.number(r.required(js, p, "radius"), p / "radius");
@@ -1191,6 +1353,10 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
         scene.sphereUvRotation.push_back(SinCos<Real>{0, 1});
       }
       scene.spheres.push_back(s);
+      if (js.contains("interior") || js.contains("exterior")) {
+        scene.sphereMedia.resize(spheres.size());
+        scene.sphereMedia[i] = mediaOf.interfaceOf(js, p);
+      }
     }
   }
 
@@ -1199,9 +1365,13 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
     const Json& meshes = root["meshes"];
     if (!meshes.is_array())
       r.fail(top / "meshes", "expected an array of meshes, got " + Reader::describe(meshes));
-    for (std::size_t i = 0; i < meshes.size(); ++i)
+    for (std::size_t i = 0; i < meshes.size(); ++i) {
       readMesh(r, meshes[i], top / "meshes" / i, material, scene, fileName);
+      if (meshes[i].contains("interior") || meshes[i].contains("exterior"))
+        scene.meshes.back().media = closedMeshMedia(r, top / "meshes" / i, scene, mediaOf.interfaceOf(meshes[i], top / "meshes" / i));
+    }
   }
+  warnCameraMedium(r, top, scene);
   if (scene.spheres.empty() && scene.triangles.empty())
     r.fail(root.contains("spheres") ? top / "spheres" : top,
            "the scene is empty: give at least one sphere (\"spheres\") or one mesh (\"meshes\")");

@@ -28,6 +28,7 @@ enum Feature : unsigned {
   kUsesLens = 1u << 12,         ///< Honours the camera's aperture (a thin lens; several samples a pixel).
   kUsesMotion = 1u << 13,       ///< Honours the spheres' velocities (each sample draws a time).
   kUsesMetal = 1u << 14,        ///< Treats metal materials as metal (GGX).
+  kUsesMedia = 1u << 20,        ///< Renders participating media and interfaces (chapter 15).
   // (Chapter 14's two flags stand apart from the others' sequence, so that flags added beside them do not collide.)
   kUsesEnvironment = 1u << 24,  ///< Looks up the environment map where a ray leaves the scene (chapters 3 to 14).
   kUsesTextures = 1u << 25,     ///< Looks up textures at a hit's (u, v) (chapter 14; the others shade their mean).

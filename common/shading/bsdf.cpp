@@ -101,6 +101,14 @@ std::optional<BsdfSample> mirrorSample(const Color& tint, const Vec3& wo)
 }
 // [mirror]
 
+// An interface (chapter 15) seen as a surface: the ray goes on unchanged, with weight 1 (a delta lobe).
+std::optional<BsdfSample> passThroughSample(const Vec3& wo)
+{
+  if (wo.z == 0)
+    return std::nullopt;
+  return BsdfSample{-wo, Color(1 / std::abs(wo.z)), 1, true};
+}
+
 // [dielectric]
 std::optional<BsdfSample> dielectricSample(const Color& tint, Real eta, const Vec3& wo, Real uChoice)
 {
@@ -263,7 +271,8 @@ Color bsdfEval(const Material& m, const Color& color, const Vec3& wo, const Vec3
   case MaterialType::Glossy: return phongEval(color, phongExponent(m.roughness), wo, wi);
   case MaterialType::Metal: return metalEval(color, m.roughness, wo, wi);
   case MaterialType::Mirror:
-  case MaterialType::Glass: return Color(0);
+  case MaterialType::Glass:
+  case MaterialType::Interface: return Color(0);
   }
   return Color(0);
 }
@@ -275,7 +284,8 @@ Real bsdfPdf(const Material& m, const Vec3& wo, const Vec3& wi)
   case MaterialType::Glossy: return phongPdf(phongExponent(m.roughness), wo, wi);
   case MaterialType::Metal: return metalPdf(m.roughness, wo, wi);
   case MaterialType::Mirror:
-  case MaterialType::Glass: return 0;
+  case MaterialType::Glass:
+  case MaterialType::Interface: return 0;
   }
   return 0;
 }
@@ -295,6 +305,7 @@ std::optional<BsdfSample> bsdfSample(const Material& m, const Color& color, cons
   case MaterialType::Glass: return dielectricSample(color, m.ior, wo, uChoice);
   case MaterialType::Glossy: return phongSample(color, phongExponent(m.roughness), wo, u);
   case MaterialType::Metal: return metalSample(color, m.roughness, wo, u);
+  case MaterialType::Interface: return passThroughSample(wo);
   }
   return std::nullopt;
 }

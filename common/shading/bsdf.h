@@ -75,6 +75,10 @@ std::optional<BsdfSample> lambertianSample(const Color& albedo, const Vec3& wo, 
 /// The ideal mirror: wi = reflect(wo, n) with weight `tint` (in [0, 1] per channel). Nothing when wo.z = 0.
 std::optional<BsdfSample> mirrorSample(const Color& tint, const Vec3& wo);
 
+/// An interface (chapter 15: a boundary between media, not a surface) as chapters before 15 see it: the ray goes
+/// on unchanged, wi = −wo, with weight exactly 1 (a delta lobe). Nothing when wo.z = 0.
+std::optional<BsdfSample> passThroughSample(const Vec3& wo);
+
 // ---- Ideal dielectric (glass) --------------------------------------------------------------------------------
 
 /// The smooth dielectric: reflection with probability F and refraction with probability 1 − F, F the Fresnel

@@ -10,6 +10,7 @@ const char* materialTypeName(MaterialType type)
   case MaterialType::Glass: return "glass";
   case MaterialType::Glossy: return "glossy";
   case MaterialType::Metal: return "metal";
+  case MaterialType::Interface: return "interface";
   }
   return "unknown";
 }

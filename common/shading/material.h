@@ -18,9 +18,13 @@ enum class MaterialType {
   /// A rough conductor: the GGX (Trowbridge–Reitz) microfacet BRDF with α = `roughness` in [0, 1], and Schlick's
   /// Fresnel with `color` the reflectance at normal incidence F0 (chapter 11).
   Metal,
+  /// A boundary that is not a surface (chapter 15): no reflection, no refraction; a ray crosses it unchanged and
+  /// only the medium it travels in changes (the shape's "interior" and "exterior", scene.h). `color` is ignored
+  /// and it cannot emit. Chapters before 15 pass straight through it.
+  Interface,
 };
 
-/// The name a scene file uses for a material type ("diffuse", "mirror", "glass", "glossy", "metal").
+/// The name a scene file uses for a material type ("diffuse", "mirror", "glass", "glossy", "metal", "interface").
 const char* materialTypeName(MaterialType type);
 
 /// A material. Colours are linear RGB reflectances in [0, 1]; emission is radiance (≥ 0, unbounded).

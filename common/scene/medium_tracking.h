@@ -1,0 +1,40 @@
+/// @file medium_tracking.h
+/// @brief Which medium a ray is in, and the transmittance of a shadow ray through any number of media boundaries
+/// (chapter 15).
+///
+/// A ray's medium is carried along the path, never found by a point-in-shape test: it starts as
+/// Scene::cameraMedium, and changes only where the ray crosses a shape that names media, to the medium on the side
+/// its new direction leaves towards (MediumInterface::after). So a ray that starts on a boundary knows its side from
+/// its direction alone, and non-convex or nested closed shapes need nothing more.
+#pragma once
+
+#include "geometry/hit.h"
+#include "scene/light_sampling.h"
+#include "scene/scene.h"
+
+namespace raylife {
+
+/// Most boundaries one shadow ray, or one path between two scattering events, may cross (interfaces do not count
+/// as bounces, so this is what stops a path in a pathological scene: thousands of nested shells). Far more than
+/// any real scene has along one ray.
+inline constexpr int kMaxMediumCrossings = 1024;
+
+/// The transmittance exp(−σt·d) over a distance d ≥ 0 in medium `medium` (kVacuum: 1), per channel.
+Color mediumTransmittance(const Scene& scene, int medium, Real d);
+
+/// The medium that a ray leaving `hit` along `direction` travels in, `current` being the one it arrived in.
+inline int mediumAfter(const Scene& scene, const Hit& hit, const Vec3& direction, int current)
+{
+  return scene.mediumInterface(hit.primitive).after(hit.geometricNormal, direction, current);
+}
+
+/// The fraction of the light sample's radiance that reaches surface point `hit` (in medium `medium` on the side
+/// ls.wi leaves towards): 0 when a surface other than an interface blocks it, else the product of the media's
+/// transmittances between the boundaries it crosses. The shadow ray stops where it meets the sampled emitter (or
+/// just short of a point light), as lightVisible does.
+Color shadowTransmittance(const Scene& scene, const Hit& hit, int medium, const LightSample& ls);
+
+/// As above, from a point `p` inside medium `medium` (a scattering event, not on a surface).
+Color shadowTransmittance(const Scene& scene, const Vec3& p, Real time, int medium, const LightSample& ls);
+
+} // namespace raylife
