@@ -22,6 +22,7 @@ Color walkShadowRay(const Scene& scene, Ray ray, int medium, const LightSample& 
       ray.tmax = *t;
     }
     const std::optional<Hit> hit = scene.intersect(ray);
+    medium = segmentMedium(scene, hit, ray, medium);
     if (!hit)
       return tr * mediumTransmittance(scene, medium, ray.tmax);
     if (scene.materials[std::size_t(hit->material)].type != MaterialType::Interface)

@@ -6,6 +6,11 @@
 /// Scene::cameraMedium, and changes only where the ray crosses a shape that names media, to the medium on the side
 /// its new direction leaves towards (MediumInterface::after). So a ray that starts on a boundary knows its side from
 /// its direction alone, and non-convex or nested closed shapes need nothing more.
+///
+/// One more rule makes a ray that starts exactly on a boundary safe whatever rounding does (the camera on a ball's
+/// surface: its rays may or may not find the boundary at t ≈ 0): a segment that ends on a shape naming media
+/// travels in the medium that shape names on the side the ray arrives from (segmentMedium). The carried medium
+/// decides only the segments that end on shapes without media or in the sky.
 #pragma once
 
 #include "geometry/hit.h"
@@ -26,6 +31,13 @@ Color mediumTransmittance(const Scene& scene, int medium, Real d);
 inline int mediumAfter(const Scene& scene, const Hit& hit, const Vec3& direction, int current)
 {
   return scene.mediumInterface(hit.primitive).after(hit.geometricNormal, direction, current);
+}
+
+/// The medium of the segment of `ray` that ends at `hit`: the one the hit's shape names on the side the ray arrives
+/// from, when the shape names media; else `current` (also with no hit: the segment runs to the sky).
+inline int segmentMedium(const Scene& scene, const std::optional<Hit>& hit, const Ray& ray, int current)
+{
+  return hit ? scene.mediumInterface(hit->primitive).after(hit->geometricNormal, -ray.direction, current) : current;
 }
 
 /// The fraction of the light sample's radiance that reaches surface point `hit` (in medium `medium` on the side

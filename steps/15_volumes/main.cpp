@@ -43,6 +43,7 @@ Color trace(const LightSampler& lights, MisHeuristic heuristic, bool mediumLight
   Ray ray = primary;
   for (int depth = 0;;) {
     const std::optional<Hit> hit = scene.intersect(ray);
+    medium = segmentMedium(scene, hit, ray, medium); // the side of the boundary it arrives at (medium_tracking.h)
 
     // In a medium, free flight decides whether the ray scatters before the surface (or the sky).
     if (medium != kVacuum) {

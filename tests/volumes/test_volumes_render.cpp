@@ -132,13 +132,14 @@ Expected expectImage(const Scene& scene, int k, const std::function<Color(const 
 
 } // namespace
 
-TEST_CASE("transmittance: an absorbing ball behind an invisible boundary shows exp(-sigma_t x chord) in every pixel")
+namespace {
+
+// Renders `json` (an absorbing ball of radius 1.1 at the origin, "ink", behind an interface, before a sky of 1) and
+// requires every pixel to be exp(−σt × chord), the chord from the pixel's ray; as a control the same test must
+// tell a ball of half the density. Returns nothing; `tag` names the files.
+void checkAbsorbingBall(const std::string& what, const std::string& json, const std::string& tag)
 {
-  const std::string json = R"({"camera": {"eye": [0, 0.3, 4], "focal": [0, 0, 0], "vfov": 36, "width": 24, "height": 18},
-    "background": [1, 1, 1], "media": {"ink": {"sigma_a": [0.3, 1.0, 2.5]}},
-    "materials": {"boundary": {"type": "interface"}},
-    "spheres": [{"center": [0, 0, 0], "radius": 1.1, "material": "boundary", "interior": "ink"}]})";
-  const std::string path = sceneFile("transmittance", json);
+  const std::string path = sceneFile(tag, json);
   const Scene scene = loadScene(path);
   const Color sigmaT = scene.media[0].sigmaT();
   auto chord = [&](const Ray& ray) {
@@ -146,20 +147,42 @@ TEST_CASE("transmittance: an absorbing ball behind an invisible boundary shows e
     return roots ? std::max(Real(0), roots->t1 - std::max(Real(0), roots->t0)) : Real(0);
   };
   const Expected e = expectImage(
-      scene, 6,
-      [&](const Ray& ray) {
-        const Real d = chord(ray);
-        return Color(std::exp(-sigmaT.r * d), std::exp(-sigmaT.g * d), std::exp(-sigmaT.b * d));
-      },
+      scene, 6, [&](const Ray& ray) { return transmittance(sigmaT, chord(ray)); },
       [&](const Ray& ray) { return chord(ray) > 0 ? 1 : 0; });
-  const ChapterRender r = render15(path, "--spp 64 --seed 3", "tr");
+  const ChapterRender r = render15(path, "--spp 64 --seed 3", tag);
   const Image zero(r.mean.width, r.mean.height);
-  requireAgreement("transmittance", agree(r.mean, r.variance, e.mean, zero, -1, -1, e.use));
-  // Control: the same test must see a ball of half the density.
+  requireAgreement(what, agree(r.mean, r.variance, e.mean, zero, -1, -1, e.use));
   Expected half = e;
   for (float& v : half.mean.pixels)
     v = std::sqrt(v);
   CHECK(disagrees(agree(r.mean, r.variance, half.mean, zero, -1, -1, e.use)));
+}
+
+std::string absorbingBall(const std::string& camera, const std::string& sigmaA)
+{
+  return R"({"camera": {)" + camera + R"(, "vfov": 36, "width": 24, "height": 18},
+    "background": [1, 1, 1], "media": {"ink": {"sigma_a": )" + sigmaA + R"(}},
+    "materials": {"boundary": {"type": "interface"}},
+    "spheres": [{"center": [0, 0, 0], "radius": 1.1, "material": "boundary", "interior": "ink"}]})";
+}
+
+} // namespace
+
+TEST_CASE("transmittance: an absorbing ball behind an invisible boundary shows exp(-sigma_t x chord) in every pixel")
+{
+  checkAbsorbingBall("transmittance", absorbingBall(R"("eye": [0, 0.3, 4], "focal": [0, 0, 0])", "[0.3, 1.0, 2.5]"),
+                     "tr");
+}
+
+TEST_CASE("stability: the camera on a boundary, and optical depths up to 1e6 at grazing edges, render right")
+{
+  // The eye on the ball's surface looking in: its rays may or may not find the boundary at t = 0 by rounding.
+  checkAbsorbingBall("camera on the boundary",
+                     absorbingBall(R"("eye": [0, 0, 1.1], "focal": [0, 0, 0], "medium": null)", "[0.3, 1.0, 2.5]"),
+                     "cb");
+  // Red: optical depth up to 2.2e6 (black, never NaN); green and blue thin, so the image still has something to test.
+  checkAbsorbingBall("optical depth 1e6", absorbingBall(R"("eye": [0, 0.3, 4], "focal": [0, 0, 0])", "[1e6, 1, 0.001]"),
+                     "od");
 }
 
 namespace {
