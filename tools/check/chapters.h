@@ -60,6 +60,7 @@ inline constexpr GradedChapter kGradedChapters[] = {
     {12, "step12_ambient_occlusion", Grading::Statistical, 64, 64, 64, 4096},
     {13, "step13_bdpt", Grading::Statistical, 64, 48, 16, 2048, 2},
     {14, "step14_textures", Grading::Statistical, 64, 48, 16, 4096, 2},
+    {15, "step15_volumes", Grading::Statistical, 64, 48, 64, 4096, 4},
     {16, "step16_wavefront", Grading::Statistical, 64, 48, 64, 8192, 4},
     {17, "step17_opencl", Grading::Statistical, 64, 48, 64, 8192, 4},
 };
