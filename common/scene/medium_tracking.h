@@ -13,6 +13,7 @@
 /// decides only the segments that end on shapes without media or in the sky.
 #pragma once
 
+#include "core/rng.h"
 #include "geometry/hit.h"
 #include "scene/light_sampling.h"
 #include "scene/scene.h"
@@ -24,8 +25,9 @@ namespace raylife {
 /// any real scene has along one ray.
 inline constexpr int kMaxMediumCrossings = 1024;
 
-/// The transmittance exp(−σt·d) over a distance d ≥ 0 in medium `medium` (kVacuum: 1), per channel.
-Color mediumTransmittance(const Scene& scene, int medium, Real d);
+/// The transmittance of medium `medium` (kVacuum: 1) over [0, t) of `ray`, per channel: exp(−σt·t) for a
+/// homogeneous medium; an unbiased estimate by ratio tracking (drawing from `sampler`) for a heterogeneous one.
+Color segmentTransmittance(const Scene& scene, int medium, const Ray& ray, Real t, Sampler& sampler);
 
 /// The medium that a ray leaving `hit` along `direction` travels in, `current` being the one it arrived in.
 inline int mediumAfter(const Scene& scene, const Hit& hit, const Vec3& direction, int current)
@@ -44,9 +46,10 @@ inline int segmentMedium(const Scene& scene, const std::optional<Hit>& hit, cons
 /// ls.wi leaves towards): 0 when a surface other than an interface blocks it, else the product of the media's
 /// transmittances between the boundaries it crosses. The shadow ray stops where it meets the sampled emitter (or
 /// just short of a point light), as lightVisible does.
-Color shadowTransmittance(const Scene& scene, const Hit& hit, int medium, const LightSample& ls);
+Color shadowTransmittance(const Scene& scene, const Hit& hit, int medium, const LightSample& ls, Sampler& sampler);
 
 /// As above, from a point `p` inside medium `medium` (a scattering event, not on a surface).
-Color shadowTransmittance(const Scene& scene, const Vec3& p, Real time, int medium, const LightSample& ls);
+Color shadowTransmittance(const Scene& scene, const Vec3& p, Real time, int medium, const LightSample& ls,
+                          Sampler& sampler);
 
 } // namespace raylife

@@ -1098,8 +1098,86 @@ struct SceneMedia {
   }
 };
 
+/// Most cells a density grid may have per axis, and the majorant cells along its longest axis.
+constexpr int kMaxDensityCells = 512;
+constexpr int kMajorantCells = 16;
+
+// A medium's "density": {"file": "cloud.json", "majorant": "grid" | "global"}. The file (relative to the scene's
+// folder) is JSON: {"resolution": [nx, ny, nz], "bounds": [[x0, y0, z0], [x1, y1, z1]], "density": [nx·ny·nz
+// numbers ≥ 0, x fastest]} (docs/scene-format.md; tools/gen_density writes one).
+void readDensity(const Reader& r, const Json& j, const Path& path, const std::string& sceneFile, Medium& m)
+{
+  r.object(j, path);
+  r.onlyKeys(j, path, {"file", "majorant"});
+  if (j.contains("majorant")) {
+    const std::string kind = r.string(j["majorant"], path / "majorant");
+    if (kind != "grid" && kind != "global")
+      r.fail(path / "majorant", "expected \"grid\" (a coarse grid of maxima) or \"global\" (one maximum), got '" +
+                                    shorten(kind) + "'");
+    m.globalMajorant = kind == "global";
+  }
+  const std::string file = r.string(r.required(j, path, "file"), path / "file");
+  const std::string resolved = (std::filesystem::path(sceneFile).parent_path() / file).string();
+  std::ifstream in(resolved, std::ios::binary);
+  if (!in)
+    r.fail(path / "file", "cannot open the density file '" + shorten(file) + "': " + std::strerror(errno));
+  Json g;
+  try {
+    g = Json::parse(in);
+  } catch (const Json::exception& e) {
+    r.fail(path / "file", "the density file '" + shorten(file) + "' is not valid JSON: " + shorten(e.what(), 200));
+  }
+  auto bad = [&](const std::string& where, const std::string& what) {
+    r.fail(path / "file", "the density file '" + shorten(file) + "' at " + where + ": " + what);
+  };
+  if (!g.is_object())
+    bad("/", "expected an object with \"resolution\", \"bounds\" and \"density\"");
+  for (auto it = g.begin(); it != g.end(); ++it)
+    if (it.key() != "resolution" && it.key() != "bounds" && it.key() != "density")
+      bad("/" + it.key(), "unknown key (known: 'resolution', 'bounds', 'density')");
+  auto grid = std::make_shared<DensityGrid>();
+  const Json& res = g.contains("resolution") ? g["resolution"] : Json();
+  if (!res.is_array() || res.size() != 3)
+    bad("/resolution", "expected [nx, ny, nz]");
+  int n[3];
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (!res[a].is_number_integer() || res[a].get<std::int64_t>() < 1 || res[a].get<std::int64_t>() > kMaxDensityCells)
+      bad("/resolution/" + std::to_string(a), "expected a whole number from 1 to " + std::to_string(kMaxDensityCells));
+    n[a] = int(res[a].get<std::int64_t>());
+  }
+  grid->nx = n[0], grid->ny = n[1], grid->nz = n[2];
+  const Json& bounds = g.contains("bounds") ? g["bounds"] : Json();
+  if (!bounds.is_array() || bounds.size() != 2)
+    bad("/bounds", "expected [[x0, y0, z0], [x1, y1, z1]]");
+  for (std::size_t k = 0; k < 2; ++k) {
+    if (!bounds[k].is_array() || bounds[k].size() != 3)
+      bad("/bounds/" + std::to_string(k), "expected [x, y, z]");
+    for (std::size_t a = 0; a < 3; ++a) {
+      if (!bounds[k][a].is_number() || !std::isfinite(bounds[k][a].get<double>()) ||
+          !withinSceneExtent(Real(bounds[k][a].get<double>())))
+        bad("/bounds/" + std::to_string(k) + "/" + std::to_string(a), "expected a finite coordinate within +-1e50");
+      (k == 0 ? grid->lo : grid->hi)[int(a)] = Real(bounds[k][a].get<double>());
+    }
+  }
+  for (int a = 0; a < 3; ++a)
+    if (!(grid->lo[a] < grid->hi[a]))
+      bad("/bounds", "the low corner must lie below the high one on every axis");
+  const Json& values = g.contains("density") ? g["density"] : Json();
+  const std::size_t count = std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]);
+  if (!values.is_array() || values.size() != count)
+    bad("/density", "expected an array of nx*ny*nz = " + std::to_string(count) + " numbers");
+  grid->values.resize(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (!values[i].is_number() || !(values[i].get<double>() >= 0) || !std::isfinite(values[i].get<float>()))
+      bad("/density/" + std::to_string(i), "a density must be a finite number >= 0");
+    grid->values[i] = values[i].get<float>();
+  }
+  grid->buildMajorants(kMajorantCells);
+  m.density = std::move(grid);
+}
+
 // "media", "medium" and "camera.medium".
-SceneMedia readMedia(const Reader& r, const Json& root, const Path& top, Scene& scene)
+SceneMedia readMedia(const Reader& r, const Json& root, const Path& top, Scene& scene, const std::string& sceneFile)
 {
   SceneMedia out{r, {}, kVacuum};
   if (root.contains("media")) {
@@ -1107,7 +1185,7 @@ SceneMedia readMedia(const Reader& r, const Json& root, const Path& top, Scene& 
     for (auto it = media.begin(); it != media.end(); ++it) {
       const Path p = top / "media" / it.key();
       const Json& jm = r.object(it.value(), p);
-      r.onlyKeys(jm, p, {"sigma_a", "sigma_s", "g"});
+      r.onlyKeys(jm, p, {"sigma_a", "sigma_s", "g", "density"});
       Medium m;
       m.name = it.key();
       if (jm.contains("sigma_a"))
@@ -1119,6 +1197,8 @@ SceneMedia readMedia(const Reader& r, const Json& root, const Path& top, Scene& 
         if (!(m.g > -1 && m.g < 1))
           r.fail(p / "g", "the Henyey-Greenstein g must lie strictly between -1 and 1, got " + jm["g"].dump());
       }
+      if (jm.contains("density"))
+        readDensity(r, jm["density"], p / "density", sceneFile, m);
       scene.media.push_back(m);
       out.names.push_back(it.key());
     }
@@ -1304,7 +1384,7 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
   }
 
   // Participating media (chapter 15): before the shapes, which name them.
-  const SceneMedia mediaOf = readMedia(r, root, top, scene);
+  const SceneMedia mediaOf = readMedia(r, root, top, scene, fileName);
 
   // Spheres (optional: a scene needs at least one sphere or one triangle).
   std::unordered_map<std::string, int> materialIndex; // name -> index, so a large scene loads in linear time

@@ -14,10 +14,12 @@
 #pragma once
 
 #include "core/math.h"
+#include "shading/density_grid.h"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
 
 namespace raylife {
@@ -31,6 +33,10 @@ struct Medium {
   Color sigmaA{0};   ///< Absorption coefficient σa per unit length, ≥ 0 per channel.
   Color sigmaS{0};   ///< Scattering coefficient σs per unit length, ≥ 0 per channel.
   Real g = 0;        ///< Henyey–Greenstein asymmetry in (−1, 1): > 0 forward, < 0 backward, 0 isotropic.
+  /// A heterogeneous medium's density, scaling σa and σs per point (density_grid.h); empty: homogeneous.
+  std::shared_ptr<const DensityGrid> density;
+  /// With a density: track against one global majorant instead of the grid of majorants (for comparison).
+  bool globalMajorant = false;
 
   /// The extinction coefficient σt = σa + σs per unit length.
   Color sigmaT() const { return sigmaA + sigmaS; }

@@ -48,9 +48,15 @@ Color trace(const LightSampler& lights, MisHeuristic heuristic, bool mediumLight
     // In a medium, free flight decides whether the ray scatters before the surface (or the sky).
     if (medium != kVacuum) {
       const Medium& md = scene.media[std::size_t(medium)];
-      const Real uChannel = sampler.next1D();
-      const FreeFlight flight = sampleFreeFlight(md.sigmaA, md.sigmaS, hit ? hit->t : kInfinity, uChannel,
-                                                 sampler.next1D());
+      const Real tSurface = hit ? hit->t : kInfinity;
+      FreeFlight flight;
+      if (md.density) { // heterogeneous: delta tracking against the majorants (density_grid.h)
+        const TrackedFlight tracked = deltaTrack(*md.density, md.globalMajorant, md.sigmaA, md.sigmaS, ray, tSurface, sampler);
+        flight = FreeFlight{tracked.scattered, tracked.t, tracked.weight};
+      } else {
+        const Real uChannel = sampler.next1D();
+        flight = sampleFreeFlight(md.sigmaA, md.sigmaS, tSurface, uChannel, sampler.next1D());
+      }
       beta *= flight.weight;
       if (beta == Color(0))
         break;
@@ -65,7 +71,7 @@ Color trace(const LightSampler& lights, MisHeuristic heuristic, bool mediumLight
         if (mediumLights)
           if (const std::optional<LightSample> ls = lights.sample(p, uLight, uDirection, ray.time)) {
             const Real phase = hgPhase(glm::dot(ray.direction, ls->wi), md.g);
-            const Color tr = shadowTransmittance(scene, p, ray.time, medium, *ls);
+            const Color tr = shadowTransmittance(scene, p, ray.time, medium, *ls, sampler);
             if (tr != Color(0)) {
               const Real weight = ls->delta ? 1 : misWeight(heuristic, ls->pdf, phase);
               L += beta * tr * phase * ls->Li * (weight / ls->pdf);
@@ -126,7 +132,7 @@ Color trace(const LightSampler& lights, MisHeuristic heuristic, bool mediumLight
         const Vec3 wi = frame.toLocal(ls->wi);
         const Color f = bsdfEval(m, wo, wi);
         if (f != Color(0)) {
-          const Color tr = shadowTransmittance(scene, *hit, mediumAfter(scene, *hit, ls->wi, medium), *ls);
+          const Color tr = shadowTransmittance(scene, *hit, mediumAfter(scene, *hit, ls->wi, medium), *ls, sampler);
           if (tr != Color(0)) {
             const Real weight = ls->delta ? 1 : misWeight(heuristic, ls->pdf, bsdfPdf(m, wo, wi));
             L += beta * tr * f * std::abs(wi.z) * ls->Li * (weight / ls->pdf);

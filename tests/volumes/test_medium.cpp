@@ -10,7 +10,11 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <string>
+
+#include <unistd.h>
 
 using namespace raylife;
 using namespace raylife::test;
@@ -246,4 +250,41 @@ TEST_CASE("scene keys: a camera inside a sphere with an interior while camera.me
   const std::string focal = R"("focal": [0, 0, 0]})";
   said.replace(said.find(focal), focal.size(), R"("focal": [0, 0, 0], "medium": "milk"})");
   CHECK(parseScene(said, "media.json").warnings.empty());
+}
+
+TEST_CASE("scene keys: a density file's faults are refused, naming the file and the place in it")
+{
+  const auto dir = std::filesystem::temp_directory_path() / ("raylife15_density_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  auto write = [&](const std::string& name, const std::string& text) { std::ofstream(dir / name) << text; };
+  write("short.json", R"({"resolution": [2, 2, 2], "bounds": [[0, 0, 0], [1, 1, 1]], "density": [1, 2, 3]})");
+  write("negative.json", R"({"resolution": [1, 1, 2], "bounds": [[0, 0, 0], [1, 1, 1]], "density": [1, -2]})");
+  write("flat.json", R"({"resolution": [1, 1, 1], "bounds": [[0, 0, 0], [1, 0, 1]], "density": [1]})");
+  write("good.json", R"({"resolution": [1, 1, 2], "bounds": [[0, 0, 0], [1, 1, 1]], "density": [1, 3]})");
+  auto scene = [&](const std::string& density) {
+    return "{" + kCamera + R"(, "media": {"smoke": {"sigma_s": 1, "density": )" + density + R"(}},
+      "materials": {"b": {"type": "interface"}}, "spheres": [{"center": [0, 0, 0], "radius": 1, "material": "b", "interior": "smoke"}]})";
+  };
+  const std::string sceneName = (dir / "scene.json").string();
+  auto error = [&](const std::string& text) {
+    try {
+      parseScene(text, sceneName);
+    } catch (const SceneError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  CHECK(error(scene(R"({"file": "missing.json"})")).find("cannot open the density file 'missing.json'") != std::string::npos);
+  CHECK(error(scene(R"({"file": "short.json"})")).find("'short.json' at /density: expected an array of nx*ny*nz = 8") != std::string::npos);
+  CHECK(error(scene(R"({"file": "negative.json"})")).find("/density/1: a density must be") != std::string::npos);
+  CHECK(error(scene(R"({"file": "flat.json"})")).find("/bounds: the low corner must lie below") != std::string::npos);
+  CHECK(error(scene(R"({"file": "good.json", "majorant": "local"})")).find("/media/smoke/density/majorant") != std::string::npos);
+  const Scene s = parseScene(scene(R"({"file": "good.json", "majorant": "global"})"), sceneName);
+  REQUIRE(s.media[0].density);
+  CHECK(s.media[0].globalMajorant);
+  CHECK(s.media[0].density->globalMajorant == Real(3));
+  CHECK(s.media[0].density->density(Vec3(0.5, 0.5, 0.25)) == Approx(1));  // the first cell's centre
+  CHECK(s.media[0].density->density(Vec3(0.5, 0.5, 0.5)) == Approx(2));   // halfway between the two centres
+  CHECK(s.media[0].density->density(Vec3(0.5, 0.5, 1.5)) == 0);            // outside the box
+  std::filesystem::remove_all(dir);
 }

@@ -97,6 +97,24 @@ double hgFormulaForTest(double cosTheta, double g)
   return (1 - g * g) / (4 * std::numbers::pi * std::pow(1 + g * g - 2 * g * cosTheta, 1.5));
 }
 
+// The image in cells of k×k pixels: each cell's mean (for a mean image) or the variance of that mean (for a
+// variance image, `variance` true). Pooling gives each cell k² times the samples, so that a pixel whose rare event
+// (a tentative collision in the thin edge of a cloud) none of its own samples met does not pass for one without.
+Image pooled(const Image& image, int k, bool variance)
+{
+  Image out(image.width / k, image.height / k);
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x)
+      for (int c = 0; c < 3; ++c) {
+        double sum = 0;
+        for (int b = 0; b < k; ++b)
+          for (int a = 0; a < k; ++a)
+            sum += double(image.at(x * k + a, y * k + b, c));
+        out.at(x, y, c) = float(sum / (variance ? k * k * k * k : k * k));
+      }
+  return out;
+}
+
 bool disagrees(const Agreement& g) { return g.failedShare > kMaxFailedShare || std::abs(g.worstMeanZ) > kMaxMeanZ; }
 
 // The expected image of a closed form f(ray) averaged over k×k positions in each pixel, as the renderer's jittered
@@ -419,4 +437,125 @@ TEST_CASE("medium tracking: nested shapes and a non-convex closed mesh, each pix
   const ChapterRender r = render15(path, "--spp 64 --seed 14", "tk");
   const Image zero(r.mean.width, r.mean.height);
   requireAgreement("nested and non-convex tracking", agree(r.mean, r.variance, e.mean, zero, -1, -1, e.use));
+}
+
+// ---- Heterogeneous media: delta tracking, ratio tracking, majorants ----
+
+namespace {
+
+// ∫ d(x) dt along the ray over [0, tMax), by the midpoint rule on the stretch inside the grid's box.
+double opticalDepthByQuadrature(const DensityGrid& grid, const Ray& ray, Real tMax, int steps = 4000)
+{
+  const std::vector<MajorantSegment> inBox = majorantSegments(grid, true, ray, tMax);
+  if (inBox.empty())
+    return 0;
+  const double t0 = double(inBox[0].t0), t1 = double(inBox[0].t1), h = (t1 - t0) / steps;
+  double sum = 0;
+  for (int i = 0; i < steps; ++i)
+    sum += double(grid.density(ray.at(Real(t0 + (i + 0.5) * h))));
+  return sum * h;
+}
+
+std::string cloudScene(const std::string& majorant, const std::string& sigmaA, const std::string& sigmaS,
+                       const std::string& extra)
+{
+  return R"({"camera": {"eye": [0, 0.6, 3.2], "focal": [0, 0, 0], "vfov": 45, "width": 24, "height": 18},
+    "background": [1, 1, 1], "media": {"cloud": {"sigma_a": )" + sigmaA + R"(, "sigma_s": )" + sigmaS +
+         R"(, "g": 0.6, "density": {"file": ")" + RAYLIFE_SCENES + R"(/media/cloud.json", "majorant": ")" + majorant +
+         R"("}}}, "materials": {"boundary": {"type": "interface"}, "sun": {"type": "diffuse", "color": [0, 0, 0], "emission": [400, 380, 340]}},
+    "spheres": [{"center": [0, 0, 0], "radius": 1.5, "material": "boundary", "interior": "cloud"})" + extra + "]}";
+}
+
+} // namespace
+
+TEST_CASE("delta tracking: an absorbing cloud before a sky of 1 shows exp(-sigma_a x the integral of its density)")
+{
+  for (const std::string majorant : {"grid", "global"}) {
+    const std::string path = sceneFile("absorbing_cloud", cloudScene(majorant, "[1, 2.5, 5]", "0", R"(, {"center": [20, 30, 10], "radius": 2, "material": "sun"})"));
+    const Scene scene = loadScene(path);
+    const Medium& m = scene.media[0];
+    REQUIRE(m.density);
+    const Expected e = expectImage(
+        scene, 6,
+        [&](const Ray& ray) {
+          const double tau = opticalDepthByQuadrature(*m.density, ray, kInfinity, 1000);
+          return Color(Real(std::exp(-double(m.sigmaA.r) * tau)), Real(std::exp(-double(m.sigmaA.g) * tau)),
+                       Real(std::exp(-double(m.sigmaA.b) * tau)));
+        },
+        [](const Ray&) { return 0; });
+    const ChapterRender r = render15(path, "--spp 256 --seed 15", "ac");
+    const Image zero(r.mean.width / 3, r.mean.height / 3);
+    requireAgreement("absorbing cloud, " + majorant + " majorant (cells of 3x3 pixels)",
+                     agree(pooled(r.mean, 3, false), pooled(r.variance, 3, true), pooled(e.mean, 3, false), zero));
+  }
+}
+
+TEST_CASE("ratio tracking: the mean of its estimates is exp(-the optical depth), with either majorant")
+{
+  const Scene scene = loadScene(sceneFile("ratio_cloud", cloudScene("grid", "1", "2", "")));
+  const DensityGrid& grid = *scene.media[0].density;
+  const Color sigmaT = scene.media[0].sigmaT();
+  Sampler rng(21, 0, 0, 0);
+  for (int k = 0; k < 12; ++k) {
+    // Rays through the box at random, from outside it.
+    const Vec3 target(Real(0.8) * (rng.next1D() - Real(0.5)), Real(0.5) * (rng.next1D() - Real(0.5)), Real(0.8) * (rng.next1D() - Real(0.5)));
+    const Vec3 from = Vec3(3 * (rng.next1D() - Real(0.5)), 2, 3);
+    const Ray ray{from, glm::normalize(target - from), 0, kInfinity, 0};
+    const double expected = std::exp(-double(sigmaT.r) * opticalDepthByQuadrature(grid, ray, kInfinity));
+    for (const bool global : {false, true}) {
+      const int n = 20000;
+      double sum = 0, sum2 = 0;
+      for (int i = 0; i < n; ++i) {
+        const double v = double(ratioTrack(grid, global, sigmaT, ray, kInfinity, rng).r);
+        sum += v;
+        sum2 += v * v;
+      }
+      const double mean = sum / n, se = std::sqrt(std::max(0.0, sum2 / n - mean * mean) / n);
+      INFO("ray " << k << (global ? " global" : " grid") << ": ratio tracking " << mean << " +- " << se
+                  << ", quadrature " << expected);
+      CHECK(std::abs(mean - expected) <= 4 * se + 1e-4);
+    }
+  }
+}
+
+TEST_CASE("majorants: one global majorant and the grid of majorants render the same lit cloud")
+{
+  const std::string sun = R"(, {"center": [20, 30, 10], "radius": 2, "material": "sun"})";
+  const ChapterRender grid = render15(sceneFile("cloud_grid", cloudScene("grid", "0.1", "[6, 6.5, 7]", sun)), "--spp 64 --seed 16", "cgr");
+  const ChapterRender global = render15(sceneFile("cloud_global", cloudScene("global", "0.1", "[6, 6.5, 7]", sun)), "--spp 64 --seed 17", "cgl");
+  requireAgreement("global against grid majorant", agree(grid.mean, grid.variance, global.mean, global.variance));
+}
+
+TEST_CASE("majorants: every segment's majorant bounds the density along it, and the segments tile the box")
+{
+  const Scene scene = loadScene(sceneFile("bound_cloud", cloudScene("grid", "1", "2", "")));
+  const DensityGrid& grid = *scene.media[0].density;
+  Sampler rng(31, 0, 0, 0);
+  std::size_t points = 0, above = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const Vec3 from(4 * (rng.next1D() - Real(0.5)), 3 * (rng.next1D() - Real(0.5)), 4 * (rng.next1D() - Real(0.5)));
+    const Vec3 to(2 * (rng.next1D() - Real(0.5)), rng.next1D() - Real(0.5), 2 * (rng.next1D() - Real(0.5)));
+    const Ray ray{from, glm::normalize(to - from), 0, kInfinity, 0};
+    const std::vector<MajorantSegment> all = majorantSegments(grid, true, ray, kInfinity);
+    const std::vector<MajorantSegment> cells = majorantSegments(grid, false, ray, kInfinity);
+    if (all.empty()) {
+      CHECK(cells.empty());
+      continue;
+    }
+    REQUIRE_FALSE(cells.empty());
+    CHECK(cells.front().t0 == Approx(all[0].t0).margin(1e-9));
+    CHECK(cells.back().t1 == Approx(all[0].t1).margin(1e-9));
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+      if (i > 0)
+        CHECK(cells[i].t0 == Approx(cells[i - 1].t1).margin(1e-9));
+      for (int j = 0; j < 8; ++j) {
+        const Real t = cells[i].t0 + (cells[i].t1 - cells[i].t0) * (Real(j) + Real(0.5)) / 8;
+        ++points;
+        above += grid.density(ray.at(t)) > cells[i].density * (1 + Real(1e-6));
+      }
+    }
+  }
+  INFO(above << " of " << points << " points above their segment's majorant");
+  CHECK(above == 0);
+  CHECK(points > 1000);
 }

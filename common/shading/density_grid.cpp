@@ -1,0 +1,187 @@
+#include "shading/density_grid.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace raylife {
+
+Real DensityGrid::density(const Vec3& p) const
+{
+  const int n[3] = {nx, ny, nz};
+  int i0[3], i1[3];
+  Real f[3];
+  for (int a = 0; a < 3; ++a) {
+    if (!(p[a] >= lo[a] && p[a] <= hi[a]))
+      return 0;
+    const Real g = (p[a] - lo[a]) / (hi[a] - lo[a]) * Real(n[a]) - Real(0.5); // in cell-centre coordinates
+    const Real fl = std::floor(g);
+    f[a] = g - fl;
+    i0[a] = std::clamp(int(fl), 0, n[a] - 1);
+    i1[a] = std::clamp(int(fl) + 1, 0, n[a] - 1);
+  }
+  auto v = [&](int x, int y, int z) {
+    return Real(values[(std::size_t(z) * std::size_t(ny) + std::size_t(y)) * std::size_t(nx) + std::size_t(x)]);
+  };
+  const Real c00 = v(i0[0], i0[1], i0[2]) * (1 - f[0]) + v(i1[0], i0[1], i0[2]) * f[0];
+  const Real c10 = v(i0[0], i1[1], i0[2]) * (1 - f[0]) + v(i1[0], i1[1], i0[2]) * f[0];
+  const Real c01 = v(i0[0], i0[1], i1[2]) * (1 - f[0]) + v(i1[0], i0[1], i1[2]) * f[0];
+  const Real c11 = v(i0[0], i1[1], i1[2]) * (1 - f[0]) + v(i1[0], i1[1], i1[2]) * f[0];
+  const Real c0 = c00 * (1 - f[1]) + c10 * f[1], c1 = c01 * (1 - f[1]) + c11 * f[1];
+  return std::max(Real(0), c0 * (1 - f[2]) + c1 * f[2]);
+}
+
+void DensityGrid::buildMajorants(int cells)
+{
+  const Vec3 extent = hi - lo;
+  const Real longest = std::max({extent.x, extent.y, extent.z});
+  const int n[3] = {nx, ny, nz};
+  int m[3];
+  for (int a = 0; a < 3; ++a)
+    m[a] = std::max(1, int(std::lround(Real(cells) * extent[a] / longest)));
+  mx = m[0], my = m[1], mz = m[2];
+  majorants.assign(std::size_t(mx) * std::size_t(my) * std::size_t(mz), 0);
+  globalMajorant = 0;
+  // The values a point of majorant cell c may interpolate: grid coordinates g ∈ [c·n/m − ½, (c+1)·n/m − ½] use
+  // the values floor(g) .. floor(g) + 1, clamped to the grid.
+  auto range = [&](int a, int c) {
+    const Real from = Real(c) * Real(n[a]) / Real(m[a]) - Real(0.5), to = Real(c + 1) * Real(n[a]) / Real(m[a]) - Real(0.5);
+    return std::pair<int, int>(std::clamp(int(std::floor(from)), 0, n[a] - 1),
+                               std::clamp(int(std::floor(to)) + 1, 0, n[a] - 1));
+  };
+  for (int cz = 0; cz < mz; ++cz)
+    for (int cy = 0; cy < my; ++cy)
+      for (int cx = 0; cx < mx; ++cx) {
+        const auto [x0, x1] = range(0, cx);
+        const auto [y0, y1] = range(1, cy);
+        const auto [z0, z1] = range(2, cz);
+        Real most = 0;
+        for (int z = z0; z <= z1; ++z)
+          for (int y = y0; y <= y1; ++y)
+            for (int x = x0; x <= x1; ++x)
+              most = std::max(most, Real(values[(std::size_t(z) * std::size_t(ny) + std::size_t(y)) * std::size_t(nx) +
+                                                std::size_t(x)]));
+        majorants[(std::size_t(cz) * std::size_t(my) + std::size_t(cy)) * std::size_t(mx) + std::size_t(cx)] = most;
+        globalMajorant = std::max(globalMajorant, most);
+      }
+}
+
+// [dda]
+std::vector<MajorantSegment> majorantSegments(const DensityGrid& grid, bool global, const Ray& ray, Real tMax)
+{
+  std::vector<MajorantSegment> out;
+  // Clip the ray to the box (slabs).
+  Real tEnter = 0, tExit = tMax;
+  for (int a = 0; a < 3; ++a) {
+    if (ray.direction[a] == 0) {
+      if (!(ray.origin[a] >= grid.lo[a] && ray.origin[a] <= grid.hi[a]))
+        return out;
+      continue;
+    }
+    const Real inv = 1 / ray.direction[a];
+    Real tNear = (grid.lo[a] - ray.origin[a]) * inv, tFar = (grid.hi[a] - ray.origin[a]) * inv;
+    if (tNear > tFar)
+      std::swap(tNear, tFar);
+    tEnter = std::max(tEnter, tNear);
+    tExit = std::min(tExit, tFar);
+  }
+  if (!(tEnter < tExit))
+    return out;
+  if (global) {
+    out.push_back({tEnter, tExit, grid.globalMajorant});
+    return out;
+  }
+  // Walk the majorant cells from where the ray enters (Amanatides and Woo).
+  const int m[3] = {grid.mx, grid.my, grid.mz};
+  const Vec3 cell = (grid.hi - grid.lo) / Vec3(Real(grid.mx), Real(grid.my), Real(grid.mz));
+  const Vec3 entry = ray.at(tEnter);
+  int index[3], step[3];
+  Real tNext[3], tDelta[3];
+  for (int a = 0; a < 3; ++a) {
+    index[a] = std::clamp(int(std::floor((entry[a] - grid.lo[a]) / cell[a])), 0, m[a] - 1);
+    if (ray.direction[a] > 0) {
+      step[a] = 1;
+      tNext[a] = tEnter + (grid.lo[a] + Real(index[a] + 1) * cell[a] - entry[a]) / ray.direction[a];
+      tDelta[a] = cell[a] / ray.direction[a];
+    } else if (ray.direction[a] < 0) {
+      step[a] = -1;
+      tNext[a] = tEnter + (grid.lo[a] + Real(index[a]) * cell[a] - entry[a]) / ray.direction[a];
+      tDelta[a] = -cell[a] / ray.direction[a];
+    } else {
+      step[a] = 0;
+      tNext[a] = kInfinity;
+      tDelta[a] = kInfinity;
+    }
+  }
+  Real t = tEnter;
+  while (t < tExit) {
+    const int a = tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
+    const Real end = std::min(tNext[a], tExit);
+    if (end > t)
+      out.push_back({t, end,
+                     grid.majorants[(std::size_t(index[2]) * std::size_t(grid.my) + std::size_t(index[1])) *
+                                        std::size_t(grid.mx) + std::size_t(index[0])]});
+    t = std::max(t, end);
+    index[a] += step[a];
+    tNext[a] += tDelta[a];
+    if (index[a] < 0 || index[a] >= m[a])
+      break;
+  }
+  return out;
+}
+// [dda]
+
+TrackedFlight deltaTrack(const DensityGrid& grid, bool globalMajorant, const Color& sigmaA, const Color& sigmaS,
+                         const Ray& ray, Real tMax, Sampler& sampler)
+{
+  const Color sigmaT = sigmaA + sigmaS;
+  const Real sMax = std::max({sigmaT.r, sigmaT.g, sigmaT.b});
+  Color weight(1);
+  if (!(sMax > 0))
+    return TrackedFlight{false, tMax, weight};
+  Real target = -std::log1p(-sampler.next1D()); // the optical thickness, at the majorant, to the next collision
+  for (const MajorantSegment& s : majorantSegments(grid, globalMajorant, ray, tMax)) {
+    const Real rate = sMax * s.density;
+    if (!(rate > 0))
+      continue;
+    Real t = s.t0;
+    for (;;) {
+      if (t + target / rate >= s.t1) { // no collision in this segment: carry the rest of the thickness on
+        target -= rate * (s.t1 - t);
+        break;
+      }
+      t += target / rate;
+      const Real d = grid.density(ray.at(t));
+      const Color st = d * sigmaT;
+      const Real mean = (st.r + st.g + st.b) / 3;
+      if (sampler.next1D() * rate < mean) // a real collision, probability mean/rate
+        return TrackedFlight{true, t, weight * (d * sigmaS) / mean};
+      // A null collision: the path goes on, weighted (rate − σt)/(rate − mean) per channel (each ≤ 3).
+      weight *= glm::max(Color(rate) - st, Color(0)) / (rate - mean);
+      target = -std::log1p(-sampler.next1D());
+    }
+  }
+  return TrackedFlight{false, tMax, weight};
+}
+
+Color ratioTrack(const DensityGrid& grid, bool globalMajorant, const Color& sigmaT, const Ray& ray, Real tMax,
+                 Sampler& sampler)
+{
+  const Real sMax = std::max({sigmaT.r, sigmaT.g, sigmaT.b});
+  Color tr(1);
+  if (!(sMax > 0))
+    return tr;
+  for (const MajorantSegment& s : majorantSegments(grid, globalMajorant, ray, tMax)) {
+    const Real rate = sMax * s.density;
+    if (!(rate > 0))
+      continue;
+    for (Real t = s.t0 - std::log1p(-sampler.next1D()) / rate; t < s.t1;
+         t -= std::log1p(-sampler.next1D()) / rate) {
+      tr *= glm::max(Color(1) - grid.density(ray.at(t)) * sigmaT / rate, Color(0));
+      if (tr == Color(0))
+        return tr;
+    }
+  }
+  return tr;
+}
+
+} // namespace raylife
