@@ -132,8 +132,6 @@ struct Mesh {
   std::uint32_t firstTriangle = 0;  ///< Its triangles are Scene::triangles[firstTriangle, + triangleCount).
   std::uint32_t triangleCount = 0;  ///< ≥ 1.
   bool hasUvs = false;              ///< True when its vertices have texture coordinates (Scene::vertexUvs).
-  /// Its media (chapter 15); a mesh that sets them is closed and consistently wound (the loader checks).
-  MediumInterface media;
 };
 
 /// A loaded, validated scene. Immutable while rendering, so it is shared by all threads without locks.
@@ -171,6 +169,9 @@ struct Scene {
   int cameraMedium = kVacuum;      ///< The medium the camera is in: "camera.medium", else `medium`.
   /// One per sphere (indexed as `spheres`) when any sphere names "interior" or "exterior"; else empty.
   std::vector<MediumInterface> sphereMedia;
+  /// One per mesh (indexed as `meshes`) when any mesh names "interior" or "exterior"; else empty. A mesh with media
+  /// is closed and consistently wound (the loader checks).
+  std::vector<MediumInterface> meshMedia;
 
   /// The media on the two sides of primitive `primitive` (a sphere's, or a triangle's mesh's): `changes` false
   /// for a shape that names none.
@@ -179,7 +180,7 @@ struct Scene {
     const auto p = std::size_t(primitive);
     if (p < spheres.size())
       return sphereMedia.empty() ? MediumInterface{} : sphereMedia[p];
-    return meshes[triangles[p - spheres.size()].mesh].media;
+    return meshMedia.empty() ? MediumInterface{} : meshMedia[triangles[p - spheres.size()].mesh];
   }
 
   /// The BVH over the spheres and triangles, or an empty one. Filled by buildAccelerator(), which the loader calls.

@@ -1447,8 +1447,10 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
       r.fail(top / "meshes", "expected an array of meshes, got " + Reader::describe(meshes));
     for (std::size_t i = 0; i < meshes.size(); ++i) {
       readMesh(r, meshes[i], top / "meshes" / i, material, scene, fileName);
-      if (meshes[i].contains("interior") || meshes[i].contains("exterior"))
-        scene.meshes.back().media = closedMeshMedia(r, top / "meshes" / i, scene, mediaOf.interfaceOf(meshes[i], top / "meshes" / i));
+      if (meshes[i].contains("interior") || meshes[i].contains("exterior")) {
+        scene.meshMedia.resize(meshes.size());
+        scene.meshMedia[i] = closedMeshMedia(r, top / "meshes" / i, scene, mediaOf.interfaceOf(meshes[i], top / "meshes" / i));
+      }
     }
   }
   warnCameraMedium(r, top, scene);
