@@ -126,13 +126,13 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
        "scene.json:11:5: /spheres/1/center: missing key 'center'"},
       {"an unknown key", withFault(R"("radius": 1,)", R"("radius": 1, "colour": [1, 0, 0],)"),
        "scene.json:11:51: /spheres/1/colour: unknown key 'colour'; known keys here: 'center', 'radius', 'material', "
-       "'velocity', 'rotate'"},
+       "'velocity', 'rotate', 'interior', 'exterior'"},
       {"a misspelt key", withFault(R"("radius": 1,)", R"("raduis": 1,)"),
        "scene.json:11:38: /spheres/1/raduis: unknown key 'raduis' (did you mean 'radius'?); known keys here: "
-       "'center', 'radius', 'material', 'velocity', 'rotate'"},
+       "'center', 'radius', 'material', 'velocity', 'rotate', 'interior', 'exterior'"},
       {"a misspelt top-level key", withFault(R"("lights")", R"("light")"),
        "scene.json:13:12: /light: unknown key 'light' (did you mean 'lights'?); known keys here: 'camera', "
-       "'background', 'ambient', 'materials', 'spheres', 'meshes', 'lights', 'environment'"},
+       "'background', 'ambient', 'materials', 'spheres', 'meshes', 'lights', 'environment', 'media', 'medium'"},
       {"a key given twice", withFault(R"("radius": 1,)", R"("radius": 1, "radius": 2,)"),
        "scene.json:11:41: /spheres/1/radius: the key 'radius' is given twice in one object (first at 11:28); give "
        "each key once"},
@@ -144,7 +144,7 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
        "scene.json:11:38: /spheres/1/radius: the radius must be greater than 0, got -1"},
       {"an unknown material type", withFault(R"("type": "glass")", R"("type": "glas")"),
        "scene.json:7:24: /materials/glass/type: unknown material type 'glas' (did you mean 'glass'?); known types: "
-       "'diffuse', 'mirror', 'glass', 'glossy', 'metal'"},
+       "'diffuse', 'mirror', 'glass', 'glossy', 'metal', 'interface'"},
       {"a key that does not apply to the material", withFault(R"([0.8, 0.2, 0.2] })", R"([0.8, 0.2, 0.2], "ior": 1.3 })"),
        "scene.json:6:68: /materials/red/ior: 'ior' does not apply to a diffuse material (only to glass)"},
       {"a negative aperture", withFault(R"("vfov": 40)", R"("vfov": 40, "aperture": -1)"),
