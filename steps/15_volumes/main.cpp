@@ -97,7 +97,7 @@ Color trace(const LightSampler& lights, MisHeuristic heuristic, bool mediumLight
 
     // The ray reached the surface (or left the scene) through its medium.
     if (!hit) {
-      L += beta * scene.background;
+      L += beta * scene.escaped(ray.direction); // (the environment map where the scene has one)
       break;
     }
     const Material& m = scene.materials[std::size_t(hit->material)];
@@ -180,7 +180,7 @@ int main(int argc, char** argv)
                             .defaultScene = "volumes.json",
                             .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
                                     kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights |
-                                    kUsesMetal | kUsesLens | kUsesMotion | kUsesMedia,
+                                    kUsesMetal | kUsesLens | kUsesMotion | kUsesMedia | kUsesEnvironment,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
                             .defaultMaxDepth = -1,

@@ -311,7 +311,8 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   }
   // (Grouped by type: one pass over them per type, which keeps each type's paths in order.)
   q.grouped.clear();
-  for (const MaterialType type : {MaterialType::Mirror, MaterialType::Glass, MaterialType::Glossy, MaterialType::Metal})
+  for (const MaterialType type : {MaterialType::Mirror, MaterialType::Glass, MaterialType::Glossy, MaterialType::Metal,
+                                  MaterialType::Interface})
     for (const std::uint32_t i : q.other)
       if (material(i).type == type)
         q.grouped.push_back(i);

@@ -20,6 +20,7 @@
 #define kGlass 2
 #define kGlossy 3
 #define kMetal 4
+#define kInterface 5
 
 // γ(n) = n·u / (1 − n·u) for float (u = 2⁻²⁴): the bound on n chained roundings.
 float gammaF(int n)
@@ -602,6 +603,13 @@ BsdfSample bsdfSample(const Material* m, float3 wo, float2 u, float uChoice)
   if (wo.z == 0.0f)
     return bs;
   const float3 r = reflectLocal(wo);
+  if (m->type == kInterface) { // (an invisible boundary: the ray goes on unchanged, passThroughSample)
+    bs.wi = -wo;
+    bs.f = (float3)(1.0f / fabs(wo.z));
+    bs.pdf = 1.0f;
+    bs.specular = 1;
+    return bs;
+  }
   if (m->type == kDiffuse) {
     float3 wi = sampleCosineHemisphere(u);
     if (wo.z < 0.0f)
