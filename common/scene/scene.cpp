@@ -240,14 +240,15 @@ namespace raylife {
 TextureLookup Scene::textureLookup(int primitive, const Vec3& point, Real time, Real footprint) const
 {
   if (std::size_t(primitive) < spheres.size()) {
-    // A sphere: (u, v) of its outward normal, the texture turned about +y.
+    // A sphere: (u, v) of its outward normal (sphereUv, not the sky's directionToUv: it is seen from outside), the
+    // texture turned about +y: what the unturned texture shows at n0 appears at R(rotate)·n0, as for the sky.
     const Sphere& s = spheres[std::size_t(primitive)];
     Vec3 n = glm::normalize(point - s.centerAt(time));
     if (!sphereUvRotation.empty()) {
       const SinCos<Real> r = sphereUvRotation[std::size_t(primitive)];
       n = rotateAboutY(n, SinCos<Real>{-r.sin, r.cos});
     }
-    return TextureLookup{directionToUv(n), footprint, true};
+    return TextureLookup{sphereUv(n), footprint, true};
   }
   // A triangle: the barycentrics of the point, then its vertices' uvs interpolated (or the barycentrics themselves).
   const std::size_t j = std::size_t(primitive) - spheres.size();

@@ -59,6 +59,9 @@ Vec3 uvToDirection(Vec2 uv)
   const Real sinTheta = std::sin(theta);
   return Vec3(sinTheta * std::sin(phi), std::cos(theta), -sinTheta * std::cos(phi));
 }
+
+// Seen from outside, the sphere's x runs the other way across the screen from the sky's: mirror it.
+Vec2 sphereUv(const Vec3& n) { return directionToUv(Vec3(-n.x, n.y, n.z)); }
 // [uv]
 
 Vec3 rotateAboutY(const Vec3& d, SinCos<Real> r)

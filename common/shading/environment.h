@@ -95,9 +95,17 @@ private:
   Color meanRadiance_{0};
 };
 
-/// (u, v) of unit direction `d` in the scene format's convention (no rotation): u = ½ + atan2(d.x, −d.z)/(2π),
-/// v = acos(d.y)/π. Spheres use it with their outward normal.
+/// (u, v) of unit direction `d` in the environment's convention (no rotation): u = ½ + atan2(d.x, −d.z)/(2π),
+/// v = acos(d.y)/π, each in [0, 1]. The sky is seen from inside: looking along −z with +y up, +x is on the right,
+/// so u grows to the right and the image reads the right way round. Not for spheres: see sphereUv.
 Vec2 directionToUv(const Vec3& d);
+/// (u, v) of a sphere's unit outward normal `n` (no rotation): u = ½ + atan2(−n.x, −n.z)/(2π), v = acos(n.y)/π,
+/// each in [0, 1]; directionToUv of n mirrored in x. The centre column still faces −z and row 0 is still the top
+/// (+y), but a sphere is seen from *outside*: looking at it along +z with +y up, −x is on the right. directionToUv
+/// would run u to the left there and show every sphere texture mirrored (a globe's continents reversed east–west);
+/// with the sign of x flipped u grows to the viewer's right, as pbrt's and Mitsuba's spheres do, so a sphere reads
+/// its image un-mirrored from outside just as the sky does from inside.
+Vec2 sphereUv(const Vec3& n);
 /// The unit direction of (u, v), the inverse of directionToUv.
 Vec3 uvToDirection(Vec2 uv);
 /// `d` turned by `rotation` (sine and cosine of the angle) about +y, right-handed: +z goes towards +x.

@@ -54,10 +54,17 @@ double decode(int code)
 const int kTexels[2][4][3] = {{{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {255, 255, 0}},
                               {{0, 255, 255}, {255, 0, 255}, {128, 128, 128}, {255, 255, 255}}};
 
-// The contract's (u, v) of a direction (scene-format.md), written out again.
+// The contract's (u, v) of a direction into the environment (scene-format.md), written out again.
 std::pair<double, double> contractUv(double x, double y, double z)
 {
   return {0.5 + std::atan2(x, -z) / (2 * std::numbers::pi), std::acos(std::clamp(y, -1.0, 1.0)) / std::numbers::pi};
+}
+
+// The contract's (u, v) of a sphere's outward normal (scene-format.md), written out again: the sign of x flipped,
+// since a sphere is seen from outside.
+std::pair<double, double> sphereContractUv(double x, double y, double z)
+{
+  return {0.5 + std::atan2(-x, -z) / (2 * std::numbers::pi), std::acos(std::clamp(y, -1.0, 1.0)) / std::numbers::pi};
 }
 
 // An image of `w` × `h` with every texel `c` except the block [x0, x1) × [y0, y1), which is `patch`.
@@ -201,6 +208,20 @@ TEST_CASE("environment: the contract's directions: -z is the centre column, +x a
   CHECK(double(glm::length(map.directionOf(Vec2(0.5, 0.5)) - Vec3(-1, 0, 0))) < 1e-9);
 }
 
+TEST_CASE("a sphere reads its image un-mirrored from outside: its -z is the centre column, -x at u = 3/4")
+{
+  // A viewer at -z looking along +z (up +y) has -x on the right: u must grow that way, the sky's formula mirrored.
+  CHECK(double(sphereUv(Vec3(0, 0, -1)).x) == Approx(0.5));
+  CHECK(double(sphereUv(Vec3(-1, 0, 0)).x) == Approx(0.75));
+  CHECK(double(sphereUv(Vec3(1, 0, 0)).x) == Approx(0.25));
+  CHECK(double(sphereUv(Vec3(0, 1, 0)).y) == Approx(0).margin(1e-9));
+  CHECK(double(sphereUv(Vec3(0, -1, 0)).y) == Approx(1));
+  const Vec3 n = glm::normalize(Vec3(0.3, -0.4, 0.8));
+  const Vec2 mirrored = directionToUv(Vec3(-n.x, n.y, n.z)), uv = sphereUv(n);
+  CHECK(double(uv.x) == Approx(double(mirrored.x)));
+  CHECK(double(uv.y) == Approx(double(mirrored.y)));
+}
+
 TEST_CASE("environment: the sampler's directions follow its pdf (chi-square), and the pdf integrates to 1")
 {
   // A map with structure in both u and v: a bright band, a brighter patch, and black texels.
@@ -339,18 +360,22 @@ TEST_CASE("texels land where the conventions say: a quad from an OBJ file's vt a
   }
 }
 
-TEST_CASE("texels land where the conventions say: a sphere from +x, -x, +z, -z and above is its texels")
+TEST_CASE("texels land where the conventions say: a sphere from +x, -x, +z, -z and above is its texels, turned too")
 {
   TempDir dir("sphere");
   fs::copy_file(kTextures + "texels_4x2.png", dir.path / "t.png");
-  const std::vector<std::array<double, 3>> eyes = {{4, 0, 0}, {-4, 0, 0}, {0, 0, 4}, {0, 0, -4}, {0, 4, 0.001}};
+  // The eye, and the sphere's "rotate" (degrees): the last view turns the texture 90°, +z towards +x.
+  const std::vector<std::array<double, 4>> eyes = {{4, 0, 0, 0}, {-4, 0, 0, 0}, {0, 0, 4, 0}, {0, 0, -4, 0},
+                                                   {0, 4, 0.001, 0}, {-4, 0, 0, 90}};
   int view = 0;
   for (const auto& eye : eyes) {
+    const bool turned = eye[3] != 0;
     const std::string json = R"({"camera": {"eye": [)" + std::to_string(eye[0]) + ", " + std::to_string(eye[1]) +
                              ", " + std::to_string(eye[2]) + R"(], "focal": [0, 0, 0], "vfov": 35, "width": 48,
                              "height": 48}, "background": [1, 1, 1],
       "materials": {"t": {"type": "diffuse", "color": {"image": "t.png", "filter": "nearest"}}},
-      "spheres": [{"center": [0, 0, 0], "radius": 1, "material": "t", "rotate": 0}]})";
+      "spheres": [{"center": [0, 0, 0], "radius": 1, "material": "t", "rotate": )" +
+                             std::to_string(eye[3]) + "}]}";
     const std::string scene = dir.file("sphere" + std::to_string(view) + ".json", json);
     const ChapterRender r = render14(scene, "--spp 4 --max-depth 1", "sphere" + std::to_string(view));
     const Camera camera = loadScene(scene).makeCamera(48, 48);
@@ -360,7 +385,8 @@ TEST_CASE("texels land where the conventions say: a sphere from +x, -x, +z, -z a
         std::vector<Color> corners;
         bool onSphere = true;
         for (const Vec2 c : {Vec2(x, y), Vec2(x + 1, y), Vec2(x, y + 1), Vec2(x + 1, y + 1)}) {
-          // The test's own ray–sphere intersection, and the contract's (u, v) of the normal.
+          // The test's own ray–sphere intersection, and the contract's (u, v) of the normal (turned back by -90°
+          // about +y when the texture is turned 90°: what it showed at n0 it now shows at R(90°)·n0).
           const Ray ray = camera.ray(c);
           const double b = glm::dot(ray.origin, ray.direction), cc = glm::dot(ray.origin, ray.origin) - 1;
           const double disc = b * b - cc;
@@ -374,7 +400,7 @@ TEST_CASE("texels land where the conventions say: a sphere from +x, -x, +z, -z a
             onSphere = false;
             break;
           }
-          const auto [u, v] = contractUv(n.x, n.y, n.z);
+          const auto [u, v] = turned ? sphereContractUv(-n.z, n.y, n.x) : sphereContractUv(n.x, n.y, n.z);
           corners.push_back(texelAt(u, v));
         }
         if (!onSphere || corners[0] != corners[1] || corners[0] != corners[2] || corners[0] != corners[3])
