@@ -14,6 +14,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <vector>
 
 #include <fcntl.h>
@@ -38,6 +39,59 @@ std::string lowerExtension(const std::string& path)
 struct WireHeader {
   std::uint32_t status, width, height;
 };
+
+// Whether a Radiance (.hdr) file's texel data ends before its w × h texels. stb_image reads past the end as zeros, so
+// a truncated file would decode, without a word, to an image black at the bottom: its scanlines are walked here
+// first, as stb_image reads them (flat RGBE when w is outside [8, 32767] or the first scanline is not run-length
+// encoded; otherwise per scanline 2, 2, w and four channels of runs). What is malformed rather than short (a run of
+// 0, a scanline of another width) is left to stb_image, which says what it is.
+bool radianceEndsEarly(std::span<const unsigned char> b, int w, int h)
+{
+  const std::size_t n = b.size();
+  std::size_t at = 0;
+  auto skipLine = [&] {
+    while (at < n && b[at] != '\n')
+      ++at;
+    ++at; // (past the end when there is no newline: then at > n)
+  };
+  // The header's lines, up to an empty one, then the resolution line.
+  while (at < n && b[at] != '\n')
+    skipLine();
+  ++at;
+  skipLine();
+  if (at > n)
+    return true;
+  const auto flatTexels = [&](std::size_t texels) { return n - at < texels * 4; };
+  const std::size_t width = std::size_t(w);
+  if (w < 8 || w > 0x7fff)
+    return flatTexels(width * std::size_t(h));
+  for (int y = 0; y < h; ++y) {
+    if (n - at < 4)
+      return true;
+    if (b[at] != 2 || b[at + 1] != 2 || (b[at + 2] & 0x80) != 0)
+      return flatTexels(width * std::size_t(h - y)); // stb_image reads the rest flat, from this texel on
+    if (((std::size_t(b[at + 2]) << 8) | b[at + 3]) != width)
+      return false;
+    at += 4;
+    for (int channel = 0; channel < 4; ++channel)
+      for (std::size_t x = 0; x < width;) {
+        if (at >= n)
+          return true;
+        std::size_t count = b[at++];
+        const bool run = count > 128;
+        if (run)
+          count -= 128;
+        if (count == 0 || count > width - x)
+          return false;
+        const std::size_t bytes = run ? 1 : count;
+        if (n - at < bytes)
+          return true;
+        at += bytes;
+        x += count;
+      }
+  }
+  return false;
+}
 
 // The child: stb_image on the bytes, linear floats to `fd`, then _exit (see mesh_file.cpp for why _exit).
 [[noreturn]] void decodeInChild(int fd, std::span<const unsigned char> bytes, ImageEncoding encoding) noexcept
@@ -70,6 +124,9 @@ struct WireHeader {
          std::to_string(kMaxTexels) + " raylife reads");
   std::vector<float> rgb(std::size_t(w) * std::size_t(h) * 3);
   if (stbi_is_hdr_from_memory(data, length)) {
+    if (radianceEndsEarly(bytes, w, h))
+      fail("its texels end early: the file is truncated (a " + std::to_string(w) + "x" + std::to_string(h) +
+           " Radiance image)");
     float* f = stbi_loadf_from_memory(data, length, &w, &h, &n, 3);
     if (!f)
       fail(std::string("cannot decode it: ") + (stbi_failure_reason() ? stbi_failure_reason() : "unknown fault"));

@@ -119,6 +119,22 @@ TEST_CASE("bad image files: one message naming the file and the fault, as a scen
         s += char((v >> (8 * b)) & 0xff);
     return s + std::string("\x08\x02\0\0\0\0\0\0\0", 9);
   };
+  // Radiance files: 16 × 4 run-length encoded (each scanline 2, 2, 0, 16, then per channel one run of 16), and
+  // 4 × 2 flat RGBE (a width below 8 is never run-length encoded); each whole, then cut short.
+  const std::string radiance = "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n";
+  std::string rle = radiance + "-Y 4 +X 16\n";
+  for (int y = 0; y < 4; ++y)
+    rle += std::string("\x02\x02\x00\x10", 4) + std::string("\x90\x80\x90\x40\x90\x20\x90\x81", 8);
+  std::string flat = radiance + "-Y 2 +X 4\n";
+  for (int i = 0; i < 8; ++i)
+    flat += std::string("\x80\x40\x20\x81", 4);
+  for (const auto& [name, bytes] : {std::pair{"rle.hdr", rle}, std::pair{"flat.hdr", flat}}) {
+    CAPTURE(name);
+    const TexelImage image = readTextureImage(dir.file(name, bytes), ImageEncoding::Srgb);
+    CHECK(image.width == (name == std::string("rle.hdr") ? 16 : 4));
+    // The last texel decoded, not zeros: red 128 × 2^(129 − 136) = 1 in each.
+    CHECK(image.texel(image.width - 1, image.height - 1).r == Approx(1).epsilon(1e-6));
+  }
   std::ifstream good(kTextures + "texels_4x2.png", std::ios::binary);
   const std::string whole((std::istreambuf_iterator<char>(good)), std::istreambuf_iterator<char>());
   const std::vector<std::pair<std::string, std::string>> cases = {
@@ -129,6 +145,8 @@ TEST_CASE("bad image files: one message naming the file and the fault, as a scen
       {"huge.png", header(100000, 100000)},
       {"jpeg.png", std::string("\xff\xd8\xff\xe0", 4) + "JFIF"},
       {"nosize.hdr", "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n"},
+      {"truncated_rle.hdr", rle.substr(0, rle.size() - 5)},
+      {"truncated_flat.hdr", flat.substr(0, flat.size() - 6)},
       {"bad.pfm", "PF\n4 4\n-1\n"},
       {"bad.exr", "v/1\x01 not really"},
       {"image.gif", "GIF89a"},
