@@ -76,6 +76,7 @@ MeshFormat meshFormatOf(const std::string& path);
 /// naming the file and the fault: unreadable, empty, not OBJ or PLY, malformed (the library's message), an index out
 /// of range, a vertex that is not finite, points or lines (raylife renders triangles), no triangle at all, or a
 /// reader that crashed on it or could not be started.
+/// @param path the mesh file, an .obj or a .ply.
 /// @param uvs also read the texture coordinates (MeshData::uvs), when a textured material needs them; an OBJ's
 /// corners are then joined only where their (u, v) agree too.
 /// @param materials also read the file's materials (MeshData::materials, triangleMaterials): an OBJ's MTL file, which

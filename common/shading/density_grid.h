@@ -18,13 +18,16 @@ namespace raylife {
 
 /// A density grid and its majorants. Immutable once built; shared by every thread.
 struct DensityGrid {
-  int nx = 1, ny = 1, nz = 1; ///< Cells per axis, ≥ 1.
+  int nx = 1; ///< Cells along x, ≥ 1.
+  int ny = 1; ///< Cells along y, ≥ 1.
+  int nz = 1; ///< Cells along z, ≥ 1.
   Vec3 lo{0};                 ///< The box's low corner, world space.
   Vec3 hi{1};                 ///< Its high corner (each coordinate > lo's).
   std::vector<float> values;  ///< nx·ny·nz densities ≥ 0, x fastest, then y, then z.
 
-  /// Majorant cells per axis (the coarse grid of maxima), ≥ 1 each; set by buildMajorants.
-  int mx = 1, my = 1, mz = 1;
+  int mx = 1; ///< Majorant cells (the coarse grid of maxima) along x, ≥ 1; set by buildMajorants.
+  int my = 1; ///< Majorant cells along y, ≥ 1; set by buildMajorants.
+  int mz = 1; ///< Majorant cells along z, ≥ 1; set by buildMajorants.
   /// The largest density that trilinear interpolation can give inside each majorant cell (x fastest); ≥ 0.
   std::vector<Real> majorants;
   Real globalMajorant = 0; ///< The largest value of all.

@@ -60,7 +60,7 @@ inline Real hgPhase(Real cosTheta, Real g)
 /// cosθ drawn with density p(cosθ)·2π (the Henyey–Greenstein density of the cosine, azimuth apart), by inverting
 /// its distribution function: cosθ = (1 + g² − ((1 − g²)/(1 − g + 2gu))²) / (2g); u = 0 gives cosθ = −1 and u → 1
 /// gives cosθ = 1 for every g. Uniform cosθ = 2u − 1 when |g| < kIsotropicG.
-/// @param u uniform in [0, 1). @return cosθ in [−1, 1].
+/// @param g the asymmetry, in (−1, 1) (g > 0: forward). @param u uniform in [0, 1). @return cosθ in [−1, 1].
 inline Real sampleHgCosTheta(Real g, Real u)
 {
   if (std::abs(g) < kIsotropicG)
@@ -77,7 +77,8 @@ struct PhaseSample {
 };
 
 /// ω' drawn from the Henyey–Greenstein function around the direction of travel `w` (unit): cosθ by
-/// sampleHgCosTheta(g, u.x), the azimuth 2π·u.y. @param u uniform in [0, 1)². @return ω' and its pdf (> 0).
+/// sampleHgCosTheta(g, u.x), the azimuth 2π·u.y. @param w the direction of travel, unit, world space.
+/// @param g the asymmetry, in (−1, 1). @param u uniform in [0, 1)². @return ω' and its pdf (> 0).
 PhaseSample sampleHg(const Vec3& w, Real g, Vec2 u);
 
 // ---- Transmittance and free flight -----------------------------------------------------------------------------
@@ -116,7 +117,8 @@ using FreeFlight = FreeFlightOf<Real>;
 /// taken after factoring out the smallest channel's exponential, so no weight divides two transmittances that
 /// underflow together (0/0): with σt·d = 10⁶ the answer is a finite number, not NaN.
 /// Absorption is not sampled: a scattering event carries the albedo in its weight (σs/σt per channel, on average).
-/// @param uChannel,u uniform in [0, 1).
+/// @param sigmaA,sigmaS the absorption and scattering coefficients per unit length, each channel ≥ 0.
+/// @param tMax the distance to the surface the ray meets, positive (∞: none). @param uChannel,u uniform in [0, 1).
 template <class T>
 FreeFlightOf<T> sampleFreeFlight(const TVec3<T>& sigmaA, const TVec3<T>& sigmaS, T tMax, T uChannel, T u)
 {

@@ -203,7 +203,7 @@ public:
       scene_.setGeometry(*k);
   }
 
-  /// [wavefront]
+  /// [rounds]
   // The radiance of every pixel sample of `keys` (at most the capacity): generate, then rounds of extend, shade,
   // connect and accumulate until no path is left, then one read of the radiance.
   void render(const PrimaryRays& primary, const Camera& camera, std::span<const PixelSampleKey> keys, int maxDepth,
@@ -300,7 +300,7 @@ public:
     for (std::size_t i = 0; i < keys.size(); ++i)
       out[i] = Color(hostRadiance_[i].s[0], hostRadiance_[i].s[1], hostRadiance_[i].s[2]);
   }
-  /// [wavefront]
+  /// [rounds]
 
 private:
   // One work-item a path, in work-groups of a fixed size: the kernels ignore the items past n. (Left to the driver,
