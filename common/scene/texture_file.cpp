@@ -218,8 +218,11 @@ TexelImage decodeStbImage(std::span<const unsigned char> bytes, ImageEncoding en
     throw ImageFileError(name + ": the file is larger than 2 GiB");
   if (signatureOf(bytes).empty())
     throw ImageFileError(name + ": not a PNG, JPEG or Radiance HDR image (its first bytes are none of theirs)");
-  const auto [fd, pid] = forkWithPipe<ImageFileError>(name + ": cannot start the image reader: ",
-                                                      [&](int writeEnd) { decodeInChild(writeEnd, bytes, encoding); });
+  // (Not a structured binding: clang 14, the sanitizer build's compiler, cannot capture one in a lambda.)
+  const std::pair<int, pid_t> child = forkWithPipe<ImageFileError>(
+      name + ": cannot start the image reader: ", [&](int writeEnd) { decodeInChild(writeEnd, bytes, encoding); });
+  const int fd = child.first;
+  const pid_t pid = child.second;
   // The parent: the header, then the texels or the message; the child reaped whatever happens.
   auto reap = [pid](bool kill) {
     if (kill)
