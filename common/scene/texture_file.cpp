@@ -93,6 +93,17 @@ bool radianceEndsEarly(std::span<const unsigned char> b, int w, int h)
   return false;
 }
 
+// stb_image's reason for a failure, printable: it copies a PNG's unknown chunk type, four bytes of the file, into its
+// message, and a message must be one printable line.
+std::string stbReason()
+{
+  std::string reason = stbi_failure_reason() ? stbi_failure_reason() : "unknown fault";
+  for (char& c : reason)
+    if ((unsigned char)c < 0x20 || (unsigned char)c >= 0x7f)
+      c = '?';
+  return reason;
+}
+
 // The child: stb_image on the bytes, linear floats to `fd`, then _exit (see mesh_file.cpp for why _exit).
 [[noreturn]] void decodeInChild(int fd, std::span<const unsigned char> bytes, ImageEncoding encoding) noexcept
 {
@@ -116,7 +127,7 @@ bool radianceEndsEarly(std::span<const unsigned char> b, int w, int h)
   int w = 0, h = 0, n = 0;
   // The size from the header first: nothing is decoded for a file that claims too many texels.
   if (!stbi_info_from_memory(data, length, &w, &h, &n))
-    fail(std::string("cannot read it: ") + (stbi_failure_reason() ? stbi_failure_reason() : "unknown fault"));
+    fail(std::string("cannot read it: ") + stbReason());
   if (w <= 0 || h <= 0)
     fail("the image has no texels (" + std::to_string(w) + "x" + std::to_string(h) + ")");
   if ((long long)w * h > kMaxTexels)
@@ -129,12 +140,12 @@ bool radianceEndsEarly(std::span<const unsigned char> b, int w, int h)
            " Radiance image)");
     float* f = stbi_loadf_from_memory(data, length, &w, &h, &n, 3);
     if (!f)
-      fail(std::string("cannot decode it: ") + (stbi_failure_reason() ? stbi_failure_reason() : "unknown fault"));
+      fail(std::string("cannot decode it: ") + stbReason());
     std::copy(f, f + rgb.size(), rgb.begin());
   } else if (stbi_is_16_bit_from_memory(data, length)) {
     stbi_us* s = stbi_load_16_from_memory(data, length, &w, &h, &n, 3);
     if (!s)
-      fail(std::string("cannot decode it: ") + (stbi_failure_reason() ? stbi_failure_reason() : "unknown fault"));
+      fail(std::string("cannot decode it: ") + stbReason());
     for (std::size_t i = 0; i < rgb.size(); ++i) {
       const float e = float(s[i]) / 65535.0f;
       rgb[i] = encoding == ImageEncoding::Srgb ? srgbToLinear(e) : e;
@@ -142,7 +153,7 @@ bool radianceEndsEarly(std::span<const unsigned char> b, int w, int h)
   } else {
     stbi_uc* c = stbi_load_from_memory(data, length, &w, &h, &n, 3);
     if (!c)
-      fail(std::string("cannot decode it: ") + (stbi_failure_reason() ? stbi_failure_reason() : "unknown fault"));
+      fail(std::string("cannot decode it: ") + stbReason());
     // [srgbTable]
     // 8 bits: 256 possible values, decoded once into a table rather than by pow() for every texel.
     const std::array<float, 256>& decode = srgbDecodeTable();
