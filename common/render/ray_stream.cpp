@@ -341,26 +341,33 @@ void SphereLightDirections(const SphereLightInput& in, std::size_t count, const 
 /// [sphereLightDirections]
 
 /// [shadowRaysToSpheres]
+// offsetRayOrigin, lane by lane: |n|·error along n, to the side w leaves through, then one ulp further.
+struct OriginLanes {
+  V x, y, z;
+};
+HWY_INLINE OriginLanes offsetOriginLanes(D d, V px, V py, V pz, V ex, V ey, V ez, V gx, V gy, V gz, V wx, V wy, V wz)
+{
+  const V zero = hn::Zero(d), one = hn::Set(d, Real(1)), two = hn::Set(d, Real(2));
+  const V distance =
+      hn::Add(hn::Add(hn::Mul(absLanes(gx), ex), hn::Mul(absLanes(gy), ey)), hn::Mul(absLanes(gz), ez));
+  const V wn = hn::Add(hn::Add(hn::Mul(wx, gx), hn::Mul(wy, gy)), hn::Mul(wz, gz));
+  const V side = hn::IfThenElse(hn::Lt(wn, zero), hn::Sub(one, two), one);
+  const V along = hn::Mul(side, distance);
+  const V offX = hn::Mul(along, gx), offY = hn::Mul(along, gy), offZ = hn::Mul(along, gz);
+  return {nextAlongLanes(d, hn::Add(px, offX), offX), nextAlongLanes(d, hn::Add(py, offY), offY),
+          nextAlongLanes(d, hn::Add(pz, offZ), offZ)};
+}
+
 void ShadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const ShadowSpawnOutput& out)
 {
   const D d;
   const std::size_t lanes = hn::Lanes(d);
-  const V zero = hn::Zero(d), one = hn::Set(d, Real(1)), two = hn::Set(d, Real(2));
   for (std::size_t i = 0; i < count; i += lanes) {
     const std::size_t n = std::min(lanes, count - i);
     auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
-    const V gx = load(in.gx), gy = load(in.gy), gz = load(in.gz);
     const V wx = load(in.wx), wy = load(in.wy), wz = load(in.wz);
-    // offsetRayOrigin: |n|·error along n, to the side w leaves through, then one ulp further.
-    const V distance = hn::Add(hn::Add(hn::Mul(absLanes(gx), load(in.ex)), hn::Mul(absLanes(gy), load(in.ey))),
-                               hn::Mul(absLanes(gz), load(in.ez)));
-    const V wn = hn::Add(hn::Add(hn::Mul(wx, gx), hn::Mul(wy, gy)), hn::Mul(wz, gz));
-    const V side = hn::IfThenElse(hn::Lt(wn, zero), hn::Sub(one, two), one);
-    const V along = hn::Mul(side, distance);
-    const V offX = hn::Mul(along, gx), offY = hn::Mul(along, gy), offZ = hn::Mul(along, gz);
-    const V ox = nextAlongLanes(d, hn::Add(load(in.px), offX), offX);
-    const V oy = nextAlongLanes(d, hn::Add(load(in.py), offY), offY);
-    const V oz = nextAlongLanes(d, hn::Add(load(in.pz), offZ), offZ);
+    const auto [ox, oy, oz] = offsetOriginLanes(d, load(in.px), load(in.py), load(in.pz), load(in.ex), load(in.ey),
+                                                load(in.ez), load(in.gx), load(in.gy), load(in.gz), wx, wy, wz);
     storeLanes(d, ox, out.ox.data(), i, n);
     storeLanes(d, oy, out.oy.data(), i, n);
     storeLanes(d, oz, out.oz.data(), i, n);
@@ -371,6 +378,42 @@ void ShadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const Sh
   }
 }
 /// [shadowRaysToSpheres]
+
+/// [pointLightRays]
+void PointLightRays(const PointLightInput& in, std::size_t count, const PointLightOutput& out)
+{
+  const D d;
+  const std::size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d), one = hn::Set(d, Real(1)), shorten = hn::Set(d, Real(1) - kShadowRayShorten);
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
+    const V px = load(in.px), py = load(in.py), pz = load(in.pz);
+    const V lx = load(in.lx), ly = load(in.ly), lz = load(in.lz);
+    // arrivalAt: the direction towards the light and the inverse-square law (nothing where the distance is not > 0).
+    const V tx = hn::Sub(lx, px), ty = hn::Sub(ly, py), tz = hn::Sub(lz, pz);
+    const V distance = hn::Sqrt(hn::Add(hn::Add(hn::Mul(tx, tx), hn::Mul(ty, ty)), hn::Mul(tz, tz)));
+    const V wx = hn::Div(tx, distance), wy = hn::Div(ty, distance), wz = hn::Div(tz, distance);
+    const V r2 = hn::Mul(distance, distance);
+    storeLanes(d, wx, out.wx.data(), i, n);
+    storeLanes(d, wy, out.wy.data(), i, n);
+    storeLanes(d, wz, out.wz.data(), i, n);
+    storeLanes(d, hn::Div(load(in.iR), r2), out.liR.data(), i, n);
+    storeLanes(d, hn::Div(load(in.iG), r2), out.liG.data(), i, n);
+    storeLanes(d, hn::Div(load(in.iB), r2), out.liB.data(), i, n);
+    storeLanes(d, hn::IfThenElseZero(hn::Gt(distance, zero), one), out.arrives.data(), i, n);
+    // spawnRayTo: the origin off the surface towards the light, and the distance from there, a little short.
+    const auto [ox, oy, oz] = offsetOriginLanes(d, px, py, pz, load(in.ex), load(in.ey), load(in.ez), load(in.gx),
+                                                load(in.gy), load(in.gz), wx, wy, wz);
+    storeLanes(d, ox, out.ox.data(), i, n);
+    storeLanes(d, oy, out.oy.data(), i, n);
+    storeLanes(d, oz, out.oz.data(), i, n);
+    const V sx = hn::Sub(lx, ox), sy = hn::Sub(ly, oy), sz = hn::Sub(lz, oz);
+    const V left = hn::Sqrt(hn::Add(hn::Add(hn::Mul(sx, sx), hn::Mul(sy, sy)), hn::Mul(sz, sz)));
+    storeLanes(d, hn::Mul(left, shorten), out.t.data(), i, n);
+  }
+}
+/// [pointLightRays]
 
 /// [diffuseLightSamples]
 void DiffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const DiffuseLightOutput& out)
@@ -400,6 +443,8 @@ void DiffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const D
     V weight = hn::Div(one, hn::Add(one, in.power ? hn::Mul(ratio, ratio) : ratio));
     weight = hn::IfThenElse(hn::IsInf(pdf), hn::IfThenElse(hn::IsInf(bsdfPdf), hn::Set(d, Real(0.5)), one), weight);
     weight = hn::IfThenElseZero(hn::Gt(pdf, zero), weight);
+    if (in.delta) // a point light: no other strategy finds it
+      weight = one;
     const V scale = hn::Div(weight, pdf);
     storeLanes(d, hn::Mul(hn::Mul(hn::Mul(hn::Mul(load(in.betaR), fR), absCos), load(in.leR)), scale),
                out.lightR.data(), i, n);
@@ -577,6 +622,7 @@ HWY_EXPORT(SphereHitPoints);
 HWY_EXPORT(SphereLightDirections);
 HWY_EXPORT(ShadowRaysToSpheres);
 HWY_EXPORT(DiffuseLightSamples);
+HWY_EXPORT(PointLightRays);
 HWY_EXPORT(GuidedWarps);
 HWY_EXPORT(GuideCells);
 HWY_EXPORT(LanesOf);
@@ -644,6 +690,11 @@ void sphereLightDirections(const SphereLightInput& in, std::size_t count, const 
 void diffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const DiffuseLightOutput& out)
 {
   HWY_DYNAMIC_DISPATCH(DiffuseLightSamples)(in, count, out);
+}
+
+void pointLightRays(const PointLightInput& in, std::size_t count, const PointLightOutput& out)
+{
+  HWY_DYNAMIC_DISPATCH(PointLightRays)(in, count, out);
 }
 
 void shadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const ShadowSpawnOutput& out)

@@ -225,6 +225,9 @@ struct DiffuseLightInput {
   std::span<const Real> leG; ///< The radiance arriving from the light (its Le): green.
   std::span<const Real> leB; ///< The radiance arriving from the light (its Le): blue.
   bool power = true; ///< The power heuristic (else the balance heuristic) weighs the sample.
+  /// The lights are points (delta lights, which BSDF sampling never finds): the weight is 1 and `pdf` is the
+  /// probability of having chosen the light; `power` is then unused.
+  bool delta = false;
 };
 
 /// The light each sample brings, stored by coordinate, and whether the BSDF lets any through.
@@ -237,7 +240,7 @@ struct DiffuseLightOutput {
 
 /// For samples [0, count): chapter 8's light sample at a Lambertian surface, bit for bit: f = lambertianEval(ρ, wo,
 /// wi) and its pdf lambertianPdf in Frame::fromNormal(n) (wo = −d), the MIS weight powerHeuristic (or
-/// balanceHeuristic) of the light's pdf against the BSDF's, and β f |cosθ| Le (w / pdf).
+/// balanceHeuristic) of the light's pdf against the BSDF's (1 for point lights: `delta`), and β f |cosθ| Le (w / pdf).
 void diffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const DiffuseLightOutput& out);
 
 /// Shadow rays from surface points towards spheres, stored by coordinate: each point with its error bound and
@@ -272,6 +275,48 @@ struct ShadowSpawnOutput {
 /// For rays [0, count): the origin spawnRay(hit, w) gives (offsetRayOrigin(p, e, g, w)) and the first root of the
 /// ray with its sphere in [0, ∞) (intersectSphere), bit for bit: the ray lightVisible tests for a spherical light.
 void shadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const ShadowSpawnOutput& out);
+
+/// Shading points and the point light each chose, stored by coordinate: each point with its error bound and
+/// geometric normal (as a Hit holds them), and the light's position and intensity.
+struct PointLightInput {
+  std::span<const Real> px; ///< The surface points: x.
+  std::span<const Real> py; ///< The surface points: y.
+  std::span<const Real> pz; ///< The surface points: z.
+  std::span<const Real> ex; ///< Their error bounds: x.
+  std::span<const Real> ey; ///< Their error bounds: y.
+  std::span<const Real> ez; ///< Their error bounds: z.
+  std::span<const Real> gx; ///< Their geometric normals: x.
+  std::span<const Real> gy; ///< Their geometric normals: y.
+  std::span<const Real> gz; ///< Their geometric normals: z.
+  std::span<const Real> lx; ///< The position of each point's light, world space: x.
+  std::span<const Real> ly; ///< The position of each point's light, world space: y.
+  std::span<const Real> lz; ///< The position of each point's light, world space: z.
+  std::span<const Real> iR; ///< Its radiant intensity, ≥ 0: red.
+  std::span<const Real> iG; ///< Its radiant intensity, ≥ 0: green.
+  std::span<const Real> iB; ///< Its radiant intensity, ≥ 0: blue.
+};
+
+/// The light arriving from each point light and the shadow ray towards it, stored by coordinate.
+struct PointLightOutput {
+  std::span<Real> wx;  ///< The unit direction towards the light: x.
+  std::span<Real> wy;  ///< The unit direction towards the light: y.
+  std::span<Real> wz;  ///< The unit direction towards the light: z.
+  std::span<Real> liR; ///< The radiance-like term that arrives, I / r²: red.
+  std::span<Real> liG; ///< The radiance-like term that arrives, I / r²: green.
+  std::span<Real> liB; ///< The radiance-like term that arrives, I / r²: blue.
+  std::span<Real> ox;  ///< The shadow ray's origin, off the surface (offsetRayOrigin): x.
+  std::span<Real> oy;  ///< The shadow ray's origin, off the surface (offsetRayOrigin): y.
+  std::span<Real> oz;  ///< The shadow ray's origin, off the surface (offsetRayOrigin): z.
+  std::span<Real> t;   ///< The shadow ray's tmax: its distance to the light, shortened by kShadowRayShorten.
+  /// 1 where light arrives (the point is not the light's own position), else 0: there the other outputs are
+  /// unspecified and the path takes no light sample.
+  std::span<Real> arrives;
+};
+
+/// For points [0, count): PointLight::arrivalAt (the direction and I / r²) and the ray spawnRayTo makes towards the
+/// light (its origin and tmax; its direction is the arrival's), bit for bit: chapter 8's light sample of a point
+/// light, and its shadow ray.
+void pointLightRays(const PointLightInput& in, std::size_t count, const PointLightOutput& out);
 
 /// An instruction set the kernels are compiled for and this CPU runs.
 struct SimdTarget {

@@ -139,6 +139,25 @@ struct SphereLightColumns {
   }
 };
 
+/// The light samples towards point lights of a round by coordinate: shade's input to pointLightRays and
+/// diffuseLightSamples, and their output.
+struct PointLightColumns {
+  std::vector<std::uint32_t> path; // which path each entry is
+  std::vector<Real> px, py, pz, ex, ey, ez, gx, gy, gz, lx, ly, lz, iR, iG, iB; // the points and their lights
+  std::vector<Real> wx, wy, wz, liR, liG, liB, ox, oy, oz, t, arrives;        // the arrivals and shadow rays
+  std::vector<Real> nx, ny, nz, dx, dy, dz, choice, betaR, betaG, betaB, rhoR, rhoG, rhoB, lightR, lightG, lightB,
+      useful; // the light they bring
+  void resize(std::size_t n)
+  {
+    atLeast(path, n);
+    for (std::vector<Real>* v : {&px, &py, &pz, &ex, &ey, &ez, &gx, &gy, &gz, &lx, &ly, &lz, &iR, &iG, &iB, &wx, &wy,
+                                 &wz, &liR, &liG, &liB, &ox, &oy, &oz, &t, &arrives, &nx, &ny, &nz, &dx, &dy, &dz,
+                                 &choice, &betaR, &betaG, &betaB, &rhoR, &rhoG, &rhoB, &lightR, &lightG, &lightB,
+                                 &useful})
+      atLeast(*v, n);
+  }
+};
+
 /// The queues and scratch arrays of one wavefront, kept from round to round (a round allocates nothing once the
 /// first has sized them).
 struct Queues {
@@ -150,6 +169,7 @@ struct Queues {
   std::vector<std::int32_t> primitive; // and what (a primitive's number; −1: nothing)
   SphereHitColumns sphereHits;      // and the hit records' points, normals and error bounds
   SphereLightColumns sphereLights;  // shade: light samples towards still spheres
+  PointLightColumns pointLights;    // and towards point lights
   // shade: the paths grouped by material, and which go on.
   std::vector<std::uint32_t> diffuse, other, grouped;
   std::vector<std::uint8_t> goesOn;
@@ -319,11 +339,13 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   std::swap(q.other, q.grouped);
 
   // Light sampling (as chapters 7 and 8): a light, a direction towards it, and its shadow ray into connect's
-  // queue. A still sphere's direction and shadow ray are left to the stream kernels (below) when `sphereLanes`.
+  // queue. A point light's or a still sphere's direction and shadow ray are left to the stream kernels (below) when
+  // `inLanes` (a diffuse surface).
   SphereLightColumns& sl = q.sphereLights;
-  sl.resize(n);
-  std::size_t nl = 0, ng = 0;
-  auto sampleLight = [&](std::uint32_t i, const Material& m, int cell, bool sphereLanes) {
+  PointLightColumns& pl = q.pointLights;
+  sl.resize(n), pl.resize(n);
+  std::size_t nl = 0, ng = 0, np = 0;
+  auto sampleLight = [&](std::uint32_t i, const Material& m, int cell, bool inLanes) {
     const Hit& hit = q.hit[i];
     const Real uLight = paths.sampler[i].next1D();
     const Vec2 uDirection = paths.sampler[i].next2D();
@@ -334,7 +356,22 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
                         : std::nullopt;
     if (!chosen)
       return;
-    if (sphereLanes && chosen->light >= 0 && std::size_t(chosen->light) < scene.spheres.size() &&
+    if (inLanes && chosen->light < 0) {
+      const PointLight& light = scene.lights[std::size_t(-chosen->light - 1)];
+      pl.path[np] = i, pl.px[np] = hit.point.x, pl.py[np] = hit.point.y, pl.pz[np] = hit.point.z;
+      pl.ex[np] = hit.pointError.x, pl.ey[np] = hit.pointError.y, pl.ez[np] = hit.pointError.z;
+      pl.gx[np] = hit.geometricNormal.x, pl.gy[np] = hit.geometricNormal.y, pl.gz[np] = hit.geometricNormal.z;
+      pl.lx[np] = light.position.x, pl.ly[np] = light.position.y, pl.lz[np] = light.position.z;
+      pl.iR[np] = light.intensity.r, pl.iG[np] = light.intensity.g, pl.iB[np] = light.intensity.b;
+      pl.nx[np] = hit.normal.x, pl.ny[np] = hit.normal.y, pl.nz[np] = hit.normal.z;
+      pl.dx[np] = paths.ray.dx[i], pl.dy[np] = paths.ray.dy[i], pl.dz[np] = paths.ray.dz[i];
+      pl.choice[np] = chosen->choice; // (a point light is never guided: its pdf is the choice's, × 1)
+      pl.betaR[np] = paths.beta[i].r, pl.betaG[np] = paths.beta[i].g, pl.betaB[np] = paths.beta[i].b;
+      pl.rhoR[np] = m.color.r, pl.rhoG[np] = m.color.g, pl.rhoB[np] = m.color.b;
+      ++np;
+      return;
+    }
+    if (inLanes && chosen->light >= 0 && std::size_t(chosen->light) < scene.spheres.size() &&
         !scene.spheres[std::size_t(chosen->light)].moving()) {
       const Sphere& s = scene.spheres[std::size_t(chosen->light)];
       const Color& Le = scene.materials[std::size_t(s.material)].emission;
@@ -443,6 +480,20 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
       q.shadows.push(Ray{Vec3(sl.ox[k], sl.oy[k], sl.oz[k]), Vec3(sl.wx[k], sl.wy[k], sl.wz[k]), 0, sl.t[k],
                          q.hit[sl.path[k]].time},
                      Color(sl.lightR[k], sl.lightG[k], sl.lightB[k]), paths.slot[sl.path[k]]);
+
+  // The diffuse paths' light samples towards point lights, all at once: the light that arrives and the shadow ray
+  // (pointLightRays), and what it brings (Lambert's f, weight 1: no other strategy finds a point).
+  pointLightRays({pl.px, pl.py, pl.pz, pl.ex, pl.ey, pl.ez, pl.gx, pl.gy, pl.gz, pl.lx, pl.ly, pl.lz, pl.iR, pl.iG,
+                  pl.iB},
+                 np, {pl.wx, pl.wy, pl.wz, pl.liR, pl.liG, pl.liB, pl.ox, pl.oy, pl.oz, pl.t, pl.arrives});
+  diffuseLightSamples({pl.nx, pl.ny, pl.nz, pl.dx, pl.dy, pl.dz, pl.wx, pl.wy, pl.wz, pl.choice, pl.betaR, pl.betaG,
+                       pl.betaB, pl.rhoR, pl.rhoG, pl.rhoB, pl.liR, pl.liG, pl.liB, true, true},
+                      np, {pl.lightR, pl.lightG, pl.lightB, pl.useful});
+  for (std::size_t k = 0; k < np; ++k)
+    if (pl.arrives[k] != 0 && pl.useful[k] != 0)
+      q.shadows.push(Ray{Vec3(pl.ox[k], pl.oy[k], pl.oz[k]), Vec3(pl.wx[k], pl.wy[k], pl.wz[k]), 0, pl.t[k],
+                         q.hit[pl.path[k]].time},
+                     Color(pl.lightR[k], pl.lightG[k], pl.lightB[k]), paths.slot[pl.path[k]]);
 
   diffuseBounces({q.nx, q.ny, q.nz, q.dx, q.dy, q.dz, q.u1, q.u2}, nd, {q.wx, q.wy, q.wz, q.cosTheta, q.pdf});
   for (std::size_t k = 0; k < nd; ++k) {

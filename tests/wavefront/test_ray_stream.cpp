@@ -7,6 +7,7 @@
 // lanes.
 #include "core/frame.h"
 #include "core/rng.h"
+#include "geometry/hit.h"
 #include "render/ray_stream.h"
 #include "shading/material.h"
 #include "scene/light_sampling.h"
@@ -351,6 +352,93 @@ TEST_CASE("stream kernels: diffuseLightSamples equals Lambert's f, its pdf and t
       CHECK(lit > count / 4);
       CHECK(wrong == 0);
     }
+  });
+}
+
+TEST_CASE("stream kernels: pointLightRays equals arrivalAt and spawnRayTo, and point lights weigh 1, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    const std::size_t count = 20005;
+    Pcg32 rng(8, 13);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    std::vector<Real> px(count), py(count), pz(count), ex(count), ey(count), ez(count), gx(count), gy(count),
+        gz(count), lx(count), ly(count), lz(count), iR(count), iG(count), iB(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      // A point on a unit sphere far from the origin, its light near or far to any side, some exactly at the point
+      // (no light arrives), some at a coordinate of 0 (the scalar path of nextAlong).
+      const Vec3 n = randomDirection(rng);
+      const Vec3 p = Vec3(-3e2, 7e1, 2e3) + n;
+      const Vec3 e = gamma<Real>(5) * absBranchFree(n) + gamma<Real>(2) * absBranchFree(p);
+      const Vec3 l = i % 17 == 0 ? p : p + std::exp(12 * u() - 6) * randomDirection(rng);
+      px[i] = p.x, py[i] = p.y, pz[i] = p.z, ex[i] = e.x, ey[i] = e.y, ez[i] = e.z;
+      gx[i] = n.x, gy[i] = n.y, gz[i] = n.z, lx[i] = l.x, ly[i] = l.y, lz[i] = l.z;
+      iR[i] = 100 * u(), iG[i] = i % 7 == 0 ? 0 : 50, iB[i] = u();
+      if (i % 13 == 0)
+        px[i] = 0, gx[i] = 0;
+    }
+    std::vector<Real> wx(count), wy(count), wz(count), liR(count), liG(count), liB(count), ox(count), oy(count),
+        oz(count), t(count), arrives(count);
+    pointLightRays({px, py, pz, ex, ey, ez, gx, gy, gz, lx, ly, lz, iR, iG, iB}, count,
+                   {wx, wy, wz, liR, liG, liB, ox, oy, oz, t, arrives});
+    std::size_t wrong = 0, arrived = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const PointLight light{Vec3(lx[i], ly[i], lz[i]), Color(iR[i], iG[i], iB[i])};
+      Hit hit;
+      hit.point = Vec3(px[i], py[i], pz[i]), hit.pointError = Vec3(ex[i], ey[i], ez[i]);
+      hit.geometricNormal = hit.normal = Vec3(gx[i], gy[i], gz[i]);
+      const std::optional<LightArrival> in = light.arrivalAt(hit.point);
+      arrived += in.has_value();
+      if ((arrives[i] != 0) != in.has_value()) {
+        ++wrong;
+        continue;
+      }
+      if (!in)
+        continue;
+      const Ray ray = spawnRayTo(hit, light.position);
+      wrong += !sameBits(wx[i], in->direction.x) || !sameBits(wy[i], in->direction.y) ||
+               !sameBits(wz[i], in->direction.z) || !sameBits(liR[i], in->intensity.r) ||
+               !sameBits(liG[i], in->intensity.g) || !sameBits(liB[i], in->intensity.b) ||
+               !sameBits(ox[i], ray.origin.x) || !sameBits(oy[i], ray.origin.y) || !sameBits(oz[i], ray.origin.z) ||
+               !sameBits(t[i], ray.tmax) || !sameBits(wx[i], ray.direction.x) ||
+               !sameBits(wy[i], ray.direction.y) || !sameBits(wz[i], ray.direction.z);
+    }
+    INFO(arrived << " of " << count << " points see their light");
+    CHECK(arrived < count);
+    CHECK(arrived > count / 2);
+    CHECK(wrong == 0);
+
+    // What such a sample brings at a Lambertian surface: the weight is 1 and the pdf the light's choice.
+    std::vector<Real> nx(count), ny(count), nz(count), dx(count), dy(count), dz(count), choice(count), bR(count),
+        bG(count), bB(count), rR(count), rG(count), rB(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      const Vec3 nn = randomDirection(rng), d = randomDirection(rng);
+      nx[i] = nn.x, ny[i] = nn.y, nz[i] = nn.z, dx[i] = d.x, dy[i] = d.y, dz[i] = d.z;
+      choice[i] = Real(0.05) + u(), bR[i] = u(), bG[i] = 2 * u(), bB[i] = u(), rR[i] = u(), rG[i] = u(), rB[i] = 0;
+    }
+    std::vector<Real> outR(count), outG(count), outB(count), useful(count);
+    diffuseLightSamples({nx, ny, nz, dx, dy, dz, wx, wy, wz, choice, bR, bG, bB, rR, rG, rB, liR, liG, liB, true,
+                         true},
+                        count, {outR, outG, outB, useful});
+    std::size_t lit = 0;
+    wrong = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      if (arrives[i] == 0)
+        continue;
+      const Frame frame = Frame::fromNormal(Vec3(nx[i], ny[i], nz[i]));
+      const Vec3 wo = frame.toLocal(-Vec3(dx[i], dy[i], dz[i])), wi = frame.toLocal(Vec3(wx[i], wy[i], wz[i]));
+      Material m;
+      m.color = Color(rR[i], rG[i], rB[i]);
+      const Color f = bsdfEval(m, wo, wi);
+      const Color L = Color(bR[i], bG[i], bB[i]) * f * std::abs(wi.z) * Color(liR[i], liG[i], liB[i]) *
+                      (Real(1) / choice[i]);
+      const bool isLit = f != Color(0);
+      lit += isLit;
+      wrong += (useful[i] != 0) != isLit ||
+               (isLit && (!sameBits(outR[i], L.r) || !sameBits(outG[i], L.g) || !sameBits(outB[i], L.b)));
+    }
+    INFO(lit << " lit");
+    CHECK(lit > count / 4);
+    CHECK(wrong == 0);
   });
 }
 
