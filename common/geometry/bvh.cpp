@@ -774,6 +774,50 @@ template <bool kAnyHit, bool kCountWork, class V>
   }
 }
 
+// The primitives of leaf `leaf` (a BvhWideNode::child with kLeaf set) against `ray`, into `found`. Closest hit: keep
+// the nearer hit, or on a tie the lower number (as the brute-force loop's strict "nearer" does), so the answer does
+// not depend on the order of the tree; true when `found` changed. Any hit: true at the first blocker.
+template <bool kAnyHit, bool kCountWork>
+[[gnu::always_inline]] inline bool Bvh::testLeaf(const Ray& ray, std::uint32_t leaf, Traversal& found) const
+{
+  bool changed = false;
+  if (leaf & BvhWideNode::kTriangles) {
+    for (std::uint32_t i = leaf & BvhWideNode::kIndexMask;; ++i) {
+      const TrianglePrimitive& p = triangles_[i];
+      if constexpr (kCountWork)
+        found.work.primitivesTested += 1;
+      const std::optional<TriangleHit<Real>> h = intersectTriangle(
+          ray.origin, ray.direction, vertices_[p.v[0]], vertices_[p.v[1]], vertices_[p.v[2]], ray.tmin, ray.tmax);
+      if (h && (kAnyHit || h->t < found.t || (h->t == found.t && p.index < found.primitive))) {
+        found.t = h->t;
+        found.primitive = p.index;
+        if constexpr (kAnyHit)
+          return true;
+        changed = true;
+      }
+      if (p.lastInLeaf)
+        return changed;
+    }
+  }
+  for (std::uint32_t i = leaf & BvhWideNode::kIndexMask;; ++i) {
+    const SpherePrimitive& p = spheres_[i];
+    if constexpr (kCountWork)
+      found.work.primitivesTested += 1;
+    // (A moving sphere where it is at the ray's time; a still scene has no velocities.)
+    const Vec3 center = velocities_.empty() ? p.center : sphereCenterAt(p.center, velocities_[i], ray.time);
+    const std::optional<Real> t = intersectSphere(ray.origin, ray.direction, center, p.radius, ray.tmin, ray.tmax);
+    if (t && (kAnyHit || *t < found.t || (*t == found.t && p.index < found.primitive))) {
+      found.t = *t;
+      found.primitive = p.index;
+      if constexpr (kAnyHit)
+        return true;
+      changed = true;
+    }
+    if (p.lastInLeaf)
+      return changed;
+  }
+}
+
 // Visits walk.current and chooses what to visit next; false when the walk is over (its answer in `found`).
 template <bool kAnyHit, bool kCountWork, class V>
 [[gnu::always_inline]] inline bool Bvh::visit(const Ray& ray, BvhWalk<V>& walk, Traversal& found) const
@@ -829,56 +873,11 @@ template <bool kAnyHit, bool kCountWork, class V>
       walk.stackSize = stackSize;
       return true;
     }
-  } else if (current & BvhWideNode::kTriangles) {
-    // A leaf of triangles, tested as a leaf of spheres is (below).
-    for (std::uint32_t i = current & BvhWideNode::kIndexMask;; ++i) {
-      const TrianglePrimitive& p = triangles_[i];
-      if constexpr (kCountWork)
-        found.work.primitivesTested += 1;
-      const std::optional<TriangleHit<Real>> h = intersectTriangle(
-          ray.origin, ray.direction, vertices_[p.v[0]], vertices_[p.v[1]], vertices_[p.v[2]], ray.tmin, ray.tmax);
-      if (h) {
-        if constexpr (kAnyHit) {
-          found.t = h->t;
-          found.primitive = p.index;
-          return false;
-        }
-        if (h->t < found.t || (h->t == found.t && p.index < found.primitive)) {
-          found.t = h->t;
-          found.primitive = p.index;
-          walk.tNearest = floatAbove(found.t);
-          fill(walk.boxRay.tmax, walk.tNearest);
-        }
-      }
-      if (p.lastInLeaf)
-        break;
-    }
-  } else {
-    // A leaf of spheres: test them. Keep the nearer hit, or on a tie the lower number (as the brute-force
-    // loop's strict "nearer" does), so the answer does not depend on the order of the tree.
-    for (std::uint32_t i = current & BvhWideNode::kIndexMask;; ++i) {
-      const SpherePrimitive& p = spheres_[i];
-      if constexpr (kCountWork)
-        found.work.primitivesTested += 1;
-      // (A moving sphere where it is at the ray's time; a still scene has no velocities.)
-      const Vec3 center = velocities_.empty() ? p.center : sphereCenterAt(p.center, velocities_[i], ray.time);
-      const std::optional<Real> t = intersectSphere(ray.origin, ray.direction, center, p.radius, ray.tmin, ray.tmax);
-      if (t) {
-        if constexpr (kAnyHit) { // a shadow ray needs no more than one blocker
-          found.t = *t;
-          found.primitive = p.index;
-          return false;
-        }
-        if (*t < found.t || (*t == found.t && p.index < found.primitive)) {
-          found.t = *t;
-          found.primitive = p.index;
-          walk.tNearest = floatAbove(found.t);
-          fill(walk.boxRay.tmax, walk.tNearest);
-        }
-      }
-      if (p.lastInLeaf)
-        break;
-    }
+  } else if (testLeaf<kAnyHit, kCountWork>(ray, current, found)) {
+    if constexpr (kAnyHit) // a shadow ray needs no more than one blocker
+      return false;
+    walk.tNearest = floatAbove(found.t);
+    fill(walk.boxRay.tmax, walk.tNearest);
   }
   // Next from the stack, skipping what the ray enters only beyond a hit found since it was pushed.
   do {
@@ -1026,6 +1025,178 @@ RAYLIFE_AVX2 [[gnu::flatten]] void Bvh::interleaveEight(std::span<const Ray> ray
   interleave<kInFlight, Float8>(rays, out);
 }
 #endif
+
+/// [packet]
+// A packet of rays as one ray with intervals for its numbers: per axis the smallest and largest of the rays' box-test
+// constants (BoxRay's, lane 0 of each), for rays that meet the faces in the same order (the same signs).
+template <class V> struct PacketBoxRay {
+  std::size_t nearRow[3], farRow[3];
+  V originNear[2][3], originFar[2][3]; // [0] the smallest, [1] the largest
+  V invNear[2][3], invFar[2][3];
+  V tmin, tmax; // the smallest tmin; the largest of the rays' nearest hits so far
+};
+
+// The slab test of a packet: a box is kept when any of its rays may enter it. Each entry (face − o)·(1/d) is a rounded
+// product of a rounded difference, so it only grows or only shrinks with o and with 1/d: its smallest value over the
+// intervals is at one of their four corners, and no ray of the packet enters earlier. Exits likewise the other way.
+// So the packet's test keeps every box that one of its rays' own tests keeps. (No NaN arises: the packet is made
+// only of rays whose constants are all finite; see intersectPacket.)
+template <class V>
+unsigned hitsBoxesPacket(const BvhWideNode& node, const PacketBoxRay<V>& r, float (&tEnter)[BvhWideNode::kWidth])
+{
+  constexpr int kLanes = int(sizeof(V) / sizeof(float));
+  unsigned hits = 0;
+  for (int k = 0; k < BvhWideNode::kWidth; k += kLanes) {
+    V enter = r.tmin, exit = r.tmax;
+    for (int a = 0; a < 3; ++a) {
+      V faceNear, faceFar;
+      std::memcpy(&faceNear, node.bounds + r.nearRow[a] + k, sizeof faceNear);
+      std::memcpy(&faceFar, node.bounds + r.farRow[a] + k, sizeof faceFar);
+      // (The smallest and largest of four, without a function that returns a V, as simd.h asks.)
+      const V n0 = faceNear - r.originNear[0][a], n1 = faceNear - r.originNear[1][a];
+      const V e00 = n0 * r.invNear[0][a], e01 = n0 * r.invNear[1][a], e10 = n1 * r.invNear[0][a],
+              e11 = n1 * r.invNear[1][a];
+      const V e0 = e00 < e01 ? e00 : e01, e1 = e10 < e11 ? e10 : e11;
+      const V tNear = e0 < e1 ? e0 : e1;
+      const V f0 = faceFar - r.originFar[0][a], f1 = faceFar - r.originFar[1][a];
+      const V x00 = f0 * r.invFar[0][a], x01 = f0 * r.invFar[1][a], x10 = f1 * r.invFar[0][a],
+              x11 = f1 * r.invFar[1][a];
+      const V x0 = x00 > x01 ? x00 : x01, x1 = x10 > x11 ? x10 : x11;
+      const V tFar = x0 > x1 ? x0 : x1;
+      enter = tNear > enter ? tNear : enter;
+      exit = tFar < exit ? tFar : exit;
+    }
+    std::memcpy(&tEnter[k], &enter, sizeof enter);
+    hits |= bitMask(enter <= exit) << k;
+  }
+  return hits;
+}
+
+// Up to kPacket rays through the tree together: one walk, each node's boxes tested once for the packet, each leaf's
+// primitives for every ray that may still find something there. Rays whose signs differ from the first's, or whose
+// constants are not all finite, walk alone.
+template <class V>
+[[gnu::flatten]] void Bvh::packet(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const
+{
+  const std::size_t n = rays.size();
+  Traversal found[kPacket];
+  float nearest[kPacket]; // each ray's nearest hit so far, rounded up: a box it enters beyond that is none of its
+  for (std::size_t i = 0; i < n; ++i) {
+    found[i] = Traversal{rays[i].tmax, -1, BvhWork{}};
+    if (!outside_.empty())
+      testOutside<false, false>(rays[i], found[i]);
+  }
+  // The packet's intervals, from each ray's own constants.
+  bool together = !wideNodes_.empty();
+  PacketBoxRay<V> packet;
+  float bound[2][4][3]; // [smallest, largest][originNear, originFar, invNear, invFar][axis]
+  float tmin = kInfinityF, tmax = -kInfinityF;
+  BoxRay<V> single;
+  for (std::size_t i = 0; i < n && together; ++i) {
+    prepareBoxRay<V>(rays[i], found[i].t, single);
+    for (int a = 0; a < 3; ++a) {
+      if (i == 0)
+        packet.nearRow[a] = single.nearRow[a], packet.farRow[a] = single.farRow[a];
+      together = together && single.nearRow[a] == packet.nearRow[a];
+      const float value[4] = {single.originNear[a][0], single.originFar[a][0], single.invNear[a][0],
+                              single.invFar[a][0]};
+      for (int q = 0; q < 4; ++q) {
+        together = together && std::isfinite(value[q]);
+        bound[0][q][a] = i == 0 ? value[q] : std::min(bound[0][q][a], value[q]);
+        bound[1][q][a] = i == 0 ? value[q] : std::max(bound[1][q][a], value[q]);
+      }
+    }
+    nearest[i] = single.tmax[0];
+    tmin = std::min(tmin, single.tmin[0]);
+    tmax = std::max(tmax, nearest[i]);
+  }
+  if (!together) {
+    for (std::size_t i = 0; i < n; ++i) {
+      traverse<false, false, V>(rays[i], found[i]);
+      out[i] = found[i].hit();
+    }
+    return;
+  }
+  for (int e = 0; e < 2; ++e)
+    for (int a = 0; a < 3; ++a) {
+      fill(packet.originNear[e][a], bound[e][0][a]);
+      fill(packet.originFar[e][a], bound[e][1][a]);
+      fill(packet.invNear[e][a], bound[e][2][a]);
+      fill(packet.invFar[e][a], bound[e][3][a]);
+    }
+  fill(packet.tmin, tmin);
+  fill(packet.tmax, tmax);
+
+  // The walk: depth first, the nearer child first (by where the packet enters it), as a single ray's.
+  using Entry = typename BvhWalk<V>::Entry;
+  Entry stack[BvhWalk<V>::kStackSize];
+  int stackSize = 0;
+  Entry current{0, -kInfinityF};
+  for (;;) {
+    if ((current.child & BvhWideNode::kLeaf) == 0) {
+      const BvhWideNode& node = wideNodes_[current.child];
+      float t[BvhWideNode::kWidth];
+      unsigned hits = hitsBoxesPacket<V>(node, packet, t) & ((1u << node.boxes) - 1);
+      if (hits != 0) {
+        const int first = stackSize;
+        for (; hits != 0; hits &= hits - 1) {
+          const unsigned k = unsigned(std::countr_zero(hits));
+          Entry e{node.child[k], t[k]};
+          int j = stackSize++;
+          for (; j > first && stack[j - 1].tEnter < e.tEnter; --j)
+            stack[j] = stack[j - 1];
+          stack[j] = e;
+        }
+        current = stack[--stackSize];
+        continue;
+      }
+    } else {
+      bool changed = false;
+      for (std::size_t i = 0; i < n; ++i)
+        if (!(current.tEnter > nearest[i]) && testLeaf<false, false>(rays[i], current.child, found[i])) {
+          nearest[i] = floatAbove(found[i].t);
+          changed = true;
+        }
+      if (changed) {
+        tmax = *std::max_element(nearest, nearest + n);
+        fill(packet.tmax, tmax);
+      }
+    }
+    do {
+      if (stackSize == 0) {
+        for (std::size_t i = 0; i < n; ++i)
+          out[i] = found[i].hit();
+        return;
+      }
+      --stackSize;
+    } while (stack[stackSize].tEnter > tmax);
+    current = stack[stackSize];
+  }
+}
+
+#if RAYLIFE_HAS_AVX2
+RAYLIFE_AVX2 [[gnu::flatten]] void Bvh::packetEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const
+{
+  packet<Float8>(rays, out);
+}
+#endif
+
+void Bvh::intersectPacket(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const
+{
+  if (out.size() < rays.size())
+    throw std::invalid_argument("Bvh::intersectPacket: out is shorter than rays");
+  for (std::size_t i = 0; i < rays.size(); i += kPacket) {
+    const std::size_t n = std::min(kPacket, rays.size() - i);
+#if RAYLIFE_HAS_AVX2
+    if (eightAtOnce_) {
+      packetEight(rays.subspan(i, n), out.subspan(i, n));
+      continue;
+    }
+#endif
+    packet<Float4>(rays.subspan(i, n), out.subspan(i, n));
+  }
+}
+/// [packet]
 
 void Bvh::intersectInterleaved(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out, int inFlight) const
 {

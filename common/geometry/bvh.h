@@ -199,6 +199,16 @@ public:
   /// a ray's time is waiting); the chapters trace one ray at a time.
   void intersectInterleaved(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out, int inFlight) const;
 
+  /// intersect for each ray of `rays` (out[i] the answer for rays[i]; out.size() ≥ rays.size()), the same answers
+  /// bit for bit, the rays taken kPacket at a time as packets that walk the tree together: each node's boxes are
+  /// tested once for a whole packet, against intervals holding all its rays' origins and directions (rounded to the
+  /// safe side, so that no box one of them enters is skipped), and each leaf's primitives for each of its rays.
+  /// Pays for coherent rays, neighbouring pixels' camera rays: they enter nearly the same boxes. A packet whose
+  /// rays' directions differ in sign on some axis (they meet the faces in another order) walks a ray at a time.
+  void intersectPacket(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
+  /// Rays in one packet of intersectPacket.
+  static constexpr std::size_t kPacket = 16;
+
   /// intersect, also counting the work (for heat maps; the plain query pays nothing for the counting).
   BvhTracedHit intersectWithWork(const Ray& ray) const;
   /// occluded, also counting the work.
@@ -289,6 +299,11 @@ private:
   template <int kInFlight, class V>
   void interleave(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   template <int kInFlight> void interleaveEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
+  // A leaf's primitives against a ray, into `found`: true when it changed (closest hit) or at a blocker (any hit).
+  template <bool kAnyHit, bool kCountWork> bool testLeaf(const Ray& ray, std::uint32_t leaf, Traversal& found) const;
+  // intersectPacket for one packet (at most kPacket rays), with V the lanes of the box test; the eight-lane one.
+  template <class V> void packet(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
+  void packetEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   // The binary nodes a wide node made from binary interior `node` takes as its children (see collapse).
   int wideChildren(std::uint32_t node, std::uint32_t (&children)[BvhWideNode::kWidth]) const;
   std::size_t wideNodeCount(std::uint32_t node) const; // the wide nodes collapse(node) makes

@@ -167,6 +167,8 @@ struct Queues {
   std::vector<std::uint8_t> found;
   std::vector<Real> t;                 // where each ray hits,
   std::vector<std::int32_t> primitive; // and what (a primitive's number; −1: nothing)
+  std::vector<Ray> rays;                      // (camera rays, for the tree's packets)
+  std::vector<std::optional<BvhHit>> hits;    // (and their answers)
   SphereHitColumns sphereHits;      // and the hit records' points, normals and error bounds
   SphereLightColumns sphereLights;  // shade: light samples towards still spheres
   PointLightColumns pointLights;    // and towards point lights
@@ -235,10 +237,10 @@ void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, 
 
 /// [extend]
 // Stage 2, extend: the nearest hit of every path's ray. First what each ray hits: in a short list of still spheres
-// one ray per lane (the stream kernel); in a tree one ray at a time (chapter 9's walk, which tests a node's eight
-// boxes in the lanes). Then the hit records: on still spheres many at a time, on triangles and moving spheres one by
+// one ray per lane (the stream kernel); in a tree, camera rays in packets of sixteen neighbours, the others one ray at
+// a time (chapter 9's walk, which tests a node's eight boxes in the lanes). Then the hit records: on still spheres many at a time, on triangles and moving spheres one by
 // one. (A short list with triangles or motion goes through the scene's own query, record and all.)
-void extend(const Stages& st, Queues& q)
+void extend(const Stages& st, Queues& q, bool cameraRays)
 {
   const Scene& scene = st.scene;
   const Paths& paths = q.paths;
@@ -247,6 +249,16 @@ void extend(const Stages& st, Queues& q)
   q.found.assign(n, 0);
   if (st.sphereKernels) {
     nearestSpheres(st.spheres, paths.ray, n, q.t, q.primitive);
+  } else if (scene.usesAccelerator() && cameraRays) {
+    // Camera rays of neighbouring pixels enter nearly the same boxes: they walk the tree in packets.
+    atLeast(q.rays, n), atLeast(q.hits, n);
+    for (std::size_t i = 0; i < n; ++i)
+      q.rays[i] = paths.ray.get(i, paths.time[i]);
+    scene.accelerator.intersectPacket(std::span(q.rays).first(n), q.hits);
+    for (std::size_t i = 0; i < n; ++i) {
+      q.t[i] = q.hits[i] ? q.hits[i]->t : 0;
+      q.primitive[i] = q.hits[i] ? q.hits[i]->primitive : -1;
+    }
   } else if (scene.usesAccelerator()) {
     for (std::size_t i = 0; i < n; ++i) {
       const std::optional<BvhHit> h = scene.accelerator.intersect(paths.ray.get(i, paths.time[i]));
@@ -560,7 +572,7 @@ void renderWavefront(const Stages& st, Queues& q, const PrimaryRays& primary, st
 {
   generate(primary, keys, q.paths);
   for (int bounce = 0; q.paths.size() > 0; ++bounce) {
-    extend(st, q);
+    extend(st, q, bounce == 0);
     q.shadows.clear(q.paths.size());
     shade(st, bounce, maxDepth, q, out);
     connect(st, q, out);
@@ -598,7 +610,7 @@ int main(int argc, char** argv)
       std::cerr << chapter.binary << ": plan: wavefronts of up to " << options.integer("--wavefront")
                 << " paths a thread; nearest hits and shadow rays "
                 << (sphereKernels ? "through the stream kernels"
-                    : scene.usesAccelerator() ? "through the tree, one ray at a time"
+                    : scene.usesAccelerator() ? "through the tree (camera rays in packets of 16, the others one ray at a time)"
                                               : "through the scene, one ray at a time (triangles or motion)")
                 << "; the kernels run " << simd.lanes << " paths a vector (" << simd.name << ")\n";
     }

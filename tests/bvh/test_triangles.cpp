@@ -339,3 +339,83 @@ TEST_CASE("the scene's flat list and its tree give the same hits over triangles"
   }
   CHECK(hits > 5000);
 }
+
+namespace {
+
+// A packet of camera-like rays: from points near `eye` (a lens of `aperture`) through a small patch of an image
+// plane looking at `target`, `count` of them; with `spread` 0 they share one origin.
+std::vector<Ray> bundle(Random& random, const Vec3& eye, const Vec3& target, Real patch, Real aperture, int count)
+{
+  std::vector<Ray> rays;
+  const Vec3 centre = target + random.inBox(-patch * 20, patch * 20);
+  for (int i = 0; i < count; ++i) {
+    Ray ray;
+    ray.origin = eye + random.inBox(-aperture, aperture);
+    ray.direction = glm::normalize(centre + random.inBox(-patch, patch) - ray.origin);
+    rays.push_back(ray);
+  }
+  return rays;
+}
+
+} // namespace
+
+TEST_CASE("packets of rays walk the tree together and get intersect's answers bit for bit")
+{
+  Random random(91);
+  Mixed spheresOnly, mesh, mixed, ground;
+  spheresOnly.spheres = clusteredScene(random, 400);
+  mesh.add(jitteredSphere<Real>(random, glm::dvec3(0), 5, 12, 24, 0.8));
+  mesh.add(grid(6, 9));
+  mixed.add(triangleSoup(random, 300, 10));
+  mixed.spheres = uniformScene(random, 200);
+  ground.spheres = groundScene(random, 300); // a huge sphere kept outside the tree
+  BvhBuildOptions four;
+  four.eightAtOnce = false;
+  for (const Mixed* s : {&spheresOnly, &mesh, &mixed, &ground})
+    for (const Bvh& bvh : {Bvh(s->spheres, s->vertices, s->triangles), Bvh(s->spheres, s->vertices, s->triangles, four)}) {
+      std::vector<Ray> rays;
+      // Coherent packets (the case they are for): pinhole and lens bundles, narrow and wide, from near and far.
+      for (int p = 0; p < 300; ++p) {
+        const Vec3 eye = random.inBox(-40, 40), target = random.inBox(-3, 3);
+        const Real patch = p % 3 == 0 ? Real(1e-3) : p % 3 == 1 ? Real(0.05) : Real(2);
+        for (const Ray& ray : bundle(random, eye, target, patch, p % 2 == 0 ? Real(0) : Real(0.3), 16))
+          rays.push_back(ray);
+      }
+      // Incoherent ones (signs differ: each walks alone), axis-aligned directions (a zero component), intervals
+      // that start late or end early, and rays with a NaN or an infinity in them.
+      for (int i = 0; i < 3000; ++i)
+        rays.push_back(!s->triangles.empty() && (s->spheres.empty() || i % 2) ? triangleRay(random, *s, 12)
+                                                                              : randomRay(random, s->spheres, 12));
+      for (int i = 0; i < 64; ++i) {
+        Ray ray;
+        ray.origin = random.inBox(-1, 1) + Vec3(0, 0, 30);
+        ray.direction = Vec3(0, 0, -1);
+        if (i % 4 == 1)
+          ray.direction = glm::normalize(Vec3(0, random.uniform(0, Real(0.1)), -1));
+        if (i % 8 == 3)
+          ray.tmin = 25, ray.tmax = 40;
+        rays.push_back(ray);
+      }
+      for (const Ray& ray : nonFiniteRays(random, 12))
+        rays.push_back(ray);
+      std::vector<std::optional<BvhHit>> out(rays.size(), BvhHit{-1, -7}); // not what any query answers
+      bvh.intersectPacket(rays, out);
+      std::size_t differ = 0, hits = 0;
+      for (std::size_t i = 0; i < rays.size(); ++i) {
+        const std::optional<BvhHit> one = bvh.intersect(rays[i]);
+        hits += one.has_value();
+        differ += one.has_value() != out[i].has_value() ||
+                  (one && (one->primitive != out[i]->primitive || std::memcmp(&one->t, &out[i]->t, sizeof(Real))));
+      }
+      INFO(s->spheres.size() << " spheres, " << s->triangles.size() << " triangles, "
+                             << (bvh.eightAtOnce() ? "eight" : "four") << " boxes at a time, " << hits << " hits");
+      CHECK(differ == 0);
+      CHECK(hits > rays.size() / 10);
+      CHECK(hits < rays.size());
+    }
+  std::vector<std::optional<BvhHit>> out(3, BvhHit{1, 1});
+  const std::vector<Ray> rays(3, Ray{});
+  Bvh().intersectPacket(rays, out);
+  CHECK_FALSE((out[0] || out[1] || out[2]));
+  CHECK_THROWS_AS(Bvh().intersectPacket(rays, std::span(out).first(2)), std::invalid_argument);
+}
