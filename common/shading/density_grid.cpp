@@ -66,15 +66,15 @@ void DensityGrid::buildMajorants(int cells)
 }
 
 // [dda]
-std::vector<MajorantSegment> majorantSegments(const DensityGrid& grid, bool global, const Ray& ray, Real tMax)
+MajorantWalker::MajorantWalker(const DensityGrid& grid, bool global, const Ray& ray, Real tMax)
+    : majorants_(global ? nullptr : grid.majorants.data()), global_(grid.globalMajorant)
 {
-  std::vector<MajorantSegment> out;
-  // Clip the ray to the box (slabs).
+  // Clip the ray to the box (slabs). An empty stretch leaves t_ ≥ tExit_, and next() gives nothing.
   Real tEnter = 0, tExit = tMax;
   for (int a = 0; a < 3; ++a) {
     if (ray.direction[a] == 0) {
       if (!(ray.origin[a] >= grid.lo[a] && ray.origin[a] <= grid.hi[a]))
-        return out;
+        tExit = -1;
       continue;
     }
     const Real inv = 1 / ray.direction[a];
@@ -84,51 +84,69 @@ std::vector<MajorantSegment> majorantSegments(const DensityGrid& grid, bool glob
     tEnter = std::max(tEnter, tNear);
     tExit = std::min(tExit, tFar);
   }
-  if (!(tEnter < tExit))
-    return out;
-  if (global) {
-    out.push_back({tEnter, tExit, grid.globalMajorant});
-    return out;
-  }
-  // Walk the majorant cells from where the ray enters (Amanatides and Woo).
-  const int m[3] = {grid.mx, grid.my, grid.mz};
-  const Vec3 cell = (grid.hi - grid.lo) / Vec3(Real(grid.mx), Real(grid.my), Real(grid.mz));
+  t_ = tEnter;
+  tExit_ = tExit;
+  if (!(tEnter < tExit) || global)
+    return;
+  // The cell where the ray enters, and where it meets each axis's next wall (Amanatides and Woo).
+  cells_[0] = grid.mx, cells_[1] = grid.my, cells_[2] = grid.mz;
+  const std::ptrdiff_t stride[3] = {1, grid.mx, std::ptrdiff_t(grid.mx) * grid.my};
   const Vec3 entry = ray.at(tEnter);
-  int index[3], step[3];
-  Real tNext[3], tDelta[3];
   for (int a = 0; a < 3; ++a) {
-    index[a] = std::clamp(int(std::floor((entry[a] - grid.lo[a]) / cell[a])), 0, m[a] - 1);
+    const Real cell = (grid.hi[a] - grid.lo[a]) / Real(cells_[a]);
+    index_[a] = std::clamp(int(std::floor((entry[a] - grid.lo[a]) / cell)), 0, cells_[a] - 1);
+    cell_ += index_[a] * stride[a];
     if (ray.direction[a] > 0) {
-      step[a] = 1;
-      tNext[a] = tEnter + (grid.lo[a] + Real(index[a] + 1) * cell[a] - entry[a]) / ray.direction[a];
-      tDelta[a] = cell[a] / ray.direction[a];
+      step_[a] = 1;
+      tNext_[a] = tEnter + (grid.lo[a] + Real(index_[a] + 1) * cell - entry[a]) / ray.direction[a];
+      tDelta_[a] = cell / ray.direction[a];
     } else if (ray.direction[a] < 0) {
-      step[a] = -1;
-      tNext[a] = tEnter + (grid.lo[a] + Real(index[a]) * cell[a] - entry[a]) / ray.direction[a];
-      tDelta[a] = -cell[a] / ray.direction[a];
+      step_[a] = -1;
+      tNext_[a] = tEnter + (grid.lo[a] + Real(index_[a]) * cell - entry[a]) / ray.direction[a];
+      tDelta_[a] = -cell / ray.direction[a];
     } else {
-      step[a] = 0;
-      tNext[a] = kInfinity;
-      tDelta[a] = kInfinity;
+      tNext_[a] = kInfinity;
+      tDelta_[a] = kInfinity;
+    }
+    stride_[a] = step_[a] * stride[a];
+  }
+}
+
+bool MajorantWalker::next(MajorantSegment& s)
+{
+  while (t_ < tExit_) {
+    if (!majorants_) { // the global majorant: the whole stretch at once
+      s = MajorantSegment{t_, tExit_, global_};
+      t_ = tExit_;
+      return true;
+    }
+    // The wall the ray meets first ends this cell's segment; the walk then steps through it.
+    const int a = tNext_[0] < tNext_[1] ? (tNext_[0] < tNext_[2] ? 0 : 2) : (tNext_[1] < tNext_[2] ? 1 : 2);
+    const Real start = t_, end = std::min(tNext_[a], tExit_);
+    const Real density = majorants_[cell_];
+    t_ = std::max(t_, end);
+    index_[a] += step_[a];
+    if (index_[a] < 0 || index_[a] >= cells_[a])
+      tExit_ = t_; // it leaves the box (rounding may have put tExit a hair further)
+    cell_ += stride_[a];
+    tNext_[a] += tDelta_[a];
+    if (end > start) {
+      s = MajorantSegment{start, end, density};
+      return true;
     }
   }
-  Real t = tEnter;
-  while (t < tExit) {
-    const int a = tNext[0] < tNext[1] ? (tNext[0] < tNext[2] ? 0 : 2) : (tNext[1] < tNext[2] ? 1 : 2);
-    const Real end = std::min(tNext[a], tExit);
-    if (end > t)
-      out.push_back({t, end,
-                     grid.majorants[(std::size_t(index[2]) * std::size_t(grid.my) + std::size_t(index[1])) *
-                                        std::size_t(grid.mx) + std::size_t(index[0])]});
-    t = std::max(t, end);
-    index[a] += step[a];
-    tNext[a] += tDelta[a];
-    if (index[a] < 0 || index[a] >= m[a])
-      break;
-  }
-  return out;
+  return false;
 }
 // [dda]
+
+std::vector<MajorantSegment> majorantSegments(const DensityGrid& grid, bool global, const Ray& ray, Real tMax)
+{
+  std::vector<MajorantSegment> out;
+  MajorantWalker walk(grid, global, ray, tMax);
+  for (MajorantSegment s; walk.next(s);)
+    out.push_back(s);
+  return out;
+}
 
 TrackedFlight deltaTrack(const DensityGrid& grid, bool globalMajorant, const Color& sigmaA, const Color& sigmaS,
                          const Ray& ray, Real tMax, Sampler& sampler)
@@ -139,10 +157,11 @@ TrackedFlight deltaTrack(const DensityGrid& grid, bool globalMajorant, const Col
   if (!(sMax > 0))
     return TrackedFlight{false, tMax, weight};
   Real target = -std::log1p(-sampler.next1D()); // the optical thickness, at the majorant, to the next collision
-  for (const MajorantSegment& s : majorantSegments(grid, globalMajorant, ray, tMax)) {
+  MajorantWalker walk(grid, globalMajorant, ray, tMax);
+  for (MajorantSegment s; walk.next(s);) {
     const Real rate = sMax * s.density;
     if (!(rate > 0))
-      continue;
+      continue; // an empty cell: nothing to collide with, and no thickness used up
     Real t = s.t0;
     for (;;) {
       if (t + target / rate >= s.t1) { // no collision in this segment: carry the rest of the thickness on
@@ -170,7 +189,8 @@ Color ratioTrack(const DensityGrid& grid, bool globalMajorant, const Color& sigm
   Color tr(1);
   if (!(sMax > 0))
     return tr;
-  for (const MajorantSegment& s : majorantSegments(grid, globalMajorant, ray, tMax)) {
+  MajorantWalker walk(grid, globalMajorant, ray, tMax);
+  for (MajorantSegment s; walk.next(s);) {
     const Real rate = sMax * s.density;
     if (!(rate > 0))
       continue;

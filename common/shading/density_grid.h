@@ -47,9 +47,32 @@ struct MajorantSegment {
   Real density = 0; ///< Its majorant density, ≥ every density on it.
 };
 
-/// The segments of the ray's stretch [0, tMax) that lie in the grid's box, in order along the ray: one per majorant
-/// cell crossed (a 3D-DDA, Amanatides and Woo), or one for the whole box with the global majorant when `global`.
-/// Contract: the ray's direction is unit; tMax may be infinite.
+/// Walks the segments of the ray's stretch [0, tMax) that lie in the grid's box, in order along the ray, one at a
+/// time: one per majorant cell crossed (a 3D-DDA, Amanatides and Woo), or one for the whole box with the global
+/// majorant when `global`. Lazy, so a tracking loop that stops at a collision walks no further, and allocates
+/// nothing. Cells whose majorant is 0 come back too (they cost a tracking loop one comparison).
+/// Contract: the ray's direction is unit; tMax may be infinite; the grid outlives the walker.
+class MajorantWalker {
+public:
+  /// Clips the ray to the box and finds the cell it enters.
+  MajorantWalker(const DensityGrid& grid, bool global, const Ray& ray, Real tMax);
+  /// The next segment, with t1 > t0; false (and `s` untouched) when the ray has left the box or reached tMax.
+  bool next(MajorantSegment& s);
+
+private:
+  const Real* majorants_ = nullptr; // the grid's majorants; null: the global one
+  Real global_ = 0;                 // the global majorant
+  Real t_ = 0, tExit_ = 0;          // where the next segment starts; where the ray leaves the box (or tMax)
+  std::ptrdiff_t cell_ = 0;         // the current majorant cell's index
+  int index_[3] = {0, 0, 0};        // its coordinates
+  int cells_[3] = {1, 1, 1};        // majorant cells along each axis
+  int step_[3] = {0, 0, 0};         // ±1 (or 0: parallel to the axis)
+  std::ptrdiff_t stride_[3] = {0, 0, 0}; // how far `cell_` moves for one step along each axis
+  Real tNext_[3] = {0, 0, 0};       // where the ray crosses the cell's next wall along each axis
+  Real tDelta_[3] = {0, 0, 0};      // the distance between two walls along each axis
+};
+
+/// Every segment MajorantWalker gives, in a vector (for tests and for looking at).
 std::vector<MajorantSegment> majorantSegments(const DensityGrid& grid, bool global, const Ray& ray, Real tMax);
 
 /// Delta tracking's answer: as FreeFlight (medium.h).
