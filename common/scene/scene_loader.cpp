@@ -1098,17 +1098,22 @@ struct SceneMedia {
   }
 };
 
-/// Most cells a density grid may have per axis, and the majorant cells along its longest axis.
+/// Most cells a density grid may have per axis, and the majorant cells along its longest axis (by default, and at
+/// most).
 constexpr int kMaxDensityCells = 512;
-constexpr int kMajorantCells = 16;
+constexpr int kMajorantCells = 32;
+constexpr int kMaxMajorantCells = 256;
 
-// A medium's "density": {"file": "cloud.json", "majorant": "grid" | "global"}. The file (relative to the scene's
+// A medium's "density": {"file": "cloud.json", "majorant": "grid" | "global", "majorant_cells": 16}. The file (relative to the scene's
 // folder) is JSON: {"resolution": [nx, ny, nz], "bounds": [[x0, y0, z0], [x1, y1, z1]], "density": [nx·ny·nz
 // numbers ≥ 0, x fastest]} (docs/scene-format.md; tools/gen_density writes one).
 void readDensity(const Reader& r, const Json& j, const Path& path, const std::string& sceneFile, Medium& m)
 {
   r.object(j, path);
-  r.onlyKeys(j, path, {"file", "majorant"});
+  r.onlyKeys(j, path, {"file", "majorant", "majorant_cells"});
+  const int majorantCells =
+      j.contains("majorant_cells") ? r.wholeNumber(j["majorant_cells"], path / "majorant_cells", 1, kMaxMajorantCells)
+                                   : kMajorantCells;
   if (j.contains("majorant")) {
     const std::string kind = r.string(j["majorant"], path / "majorant");
     if (kind != "grid" && kind != "global")
@@ -1172,7 +1177,7 @@ void readDensity(const Reader& r, const Json& j, const Path& path, const std::st
       bad("/density/" + std::to_string(i), "a density must be a finite number >= 0");
     grid->values[i] = values[i].get<float>();
   }
-  grid->buildMajorants(kMajorantCells);
+  grid->buildMajorants(majorantCells);
   m.density = std::move(grid);
 }
 

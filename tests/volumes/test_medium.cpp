@@ -286,5 +286,12 @@ TEST_CASE("scene keys: a density file's faults are refused, naming the file and 
   CHECK(s.media[0].density->density(Vec3(0.5, 0.5, 0.25)) == Approx(1));  // the first cell's centre
   CHECK(s.media[0].density->density(Vec3(0.5, 0.5, 0.5)) == Approx(2));   // halfway between the two centres
   CHECK(s.media[0].density->density(Vec3(0.5, 0.5, 1.5)) == 0);            // outside the box
+  // The majorant grid's resolution: cells along the box's longest side (here z), fewer along the others.
+  CHECK(error(scene(R"({"file": "good.json", "majorant_cells": 0})")).find("/media/smoke/density/majorant_cells: must be at least 1") != std::string::npos);
+  CHECK(error(scene(R"({"file": "good.json", "majorant_cells": 2.5})")).find("/media/smoke/density/majorant_cells") != std::string::npos);
+  const Scene fine = parseScene(scene(R"({"file": "good.json", "majorant_cells": 4})"), sceneName);
+  CHECK(fine.media[0].density->mz == 4);
+  CHECK(fine.media[0].density->mx == 4); // the box is a cube
+  CHECK(fine.media[0].density->majorants.size() == 64);
   std::filesystem::remove_all(dir);
 }
