@@ -1,15 +1,20 @@
-// gen_density OUT.json [N] [SEED]: a procedural cloud for chapter 15's heterogeneous media, as a density file.
+// gen_density OUT.json [N] [SEED] [--threshold T] [--power P]: a procedural cloud for chapter 15's heterogeneous
+// media, as a density file.
 //
 // The cloud is fractal (fBm) value noise, five octaves, shaped by a soft ellipsoid so that it thins out towards its
-// edge and leaves most of its box empty (which is where a grid of majorants beats one global maximum). The file is
+// edge and leaves most of its box empty (which is where a grid of majorants beats one global maximum): the density
+// is 2.2 × max(0, fBm × shape − 0.12), the densest about 1. --threshold T cuts at T instead of 0.12 (higher: less
+// cloud, more empty space) and --power P raises what is left to P (above 1: dense cores and thin, wispy edges);
+// with either, the density is (max(0, fBm × shape − T) / its largest value)^P, the densest exactly 1. The file is
 // the format docs/scene-format.md describes: {"resolution": [N, N/2, N], "bounds": [[-1, -0.5, -1], [1, 0.5, 1]],
-// "density": [...]}, x fastest, then y, then z; values ≥ 0, the densest about 1 (a medium's sigma_a and sigma_s
-// scale it). The same N and SEED write the same file, byte for byte.
+// "density": [...]}, x fastest, then y, then z; values ≥ 0 (a medium's sigma_a and sigma_s scale them). The same
+// arguments write the same file, byte for byte.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -45,16 +50,53 @@ double noise(double x, double y, double z, std::uint64_t seed)
 
 } // namespace
 
+// A number from the command line, or nothing when `text` is not one entirely.
+bool parseNumber(const char* text, double& value)
+{
+  char* end = nullptr;
+  value = std::strtod(text, &end);
+  return end != text && *end == 0 && std::isfinite(value);
+}
+
 int main(int argc, char** argv)
 {
-  if (argc < 2 || argc > 4) {
-    std::fprintf(stderr, "usage: gen_density OUT.json [N (8..256, default 48)] [SEED (default 1)]\n");
+  auto usage = [] {
+    std::fprintf(stderr, "usage: gen_density OUT.json [N (8..256, default 48)] [SEED (default 1)] [--threshold T "
+                         "(0..1, default 0.12)] [--power P (0.25..8, default 1)]\n");
     return 2;
+  };
+  std::vector<const char*> positional;
+  double threshold = 0.12, power = 1;
+  bool shaped = false; // --threshold or --power given: normalise to a densest value of 1
+  for (int i = 1; i < argc; ++i) {
+    const bool isThreshold = std::strcmp(argv[i], "--threshold") == 0, isPower = std::strcmp(argv[i], "--power") == 0;
+    if (!isThreshold && !isPower) {
+      positional.push_back(argv[i]);
+      continue;
+    }
+    double v = 0;
+    if (i + 1 >= argc || !parseNumber(argv[i + 1], v)) {
+      std::fprintf(stderr, "gen_density: %s needs a number\n", argv[i]);
+      return usage();
+    }
+    if (isThreshold && !(v >= 0 && v < 1)) {
+      std::fprintf(stderr, "gen_density: --threshold must lie in [0, 1), got %s\n", argv[i + 1]);
+      return 2;
+    }
+    if (isPower && !(v >= 0.25 && v <= 8)) {
+      std::fprintf(stderr, "gen_density: --power must lie in [0.25, 8], got %s\n", argv[i + 1]);
+      return 2;
+    }
+    (isThreshold ? threshold : power) = v;
+    shaped = true;
+    ++i;
   }
-  const int n = argc > 2 ? std::atoi(argv[2]) : 48;
-  const std::uint64_t seed = argc > 3 ? std::strtoull(argv[3], nullptr, 10) : 1;
+  if (positional.empty() || positional.size() > 3)
+    return usage();
+  const int n = positional.size() > 1 ? std::atoi(positional[1]) : 48;
+  const std::uint64_t seed = positional.size() > 2 ? std::strtoull(positional[2], nullptr, 10) : 1;
   if (n < 8 || n > 256) {
-    std::fprintf(stderr, "gen_density: N must lie in [8, 256], got %s\n", argv[2]);
+    std::fprintf(stderr, "gen_density: N must lie in [8, 256], got %s\n", positional[1]);
     return 2;
   }
   const int nx = n, ny = n / 2, nz = n;
@@ -74,11 +116,21 @@ int main(int argc, char** argv)
         // A soft ellipsoid, flatter at the bottom, as a cumulus: 1 at its centre, 0 at its edge.
         const double r2 = x * x / 0.7 + (y + 0.1) * (y + 0.1) / 0.16 + z * z / 0.7;
         const double shape = std::max(0.0, 1 - r2);
-        d.push_back(std::max(0.0, 2.2 * (fbm * shape - 0.12)));
+        d.push_back(shaped ? std::max(0.0, fbm * shape - threshold) : std::max(0.0, 2.2 * (fbm * shape - 0.12)));
       }
-  std::FILE* out = std::fopen(argv[1], "wb");
+  if (shaped) {
+    const double most = *std::max_element(d.begin(), d.end());
+    if (!(most > 0)) {
+      std::fprintf(stderr, "gen_density: --threshold %g leaves no cloud at all\n", threshold);
+      return 1;
+    }
+    for (double& v : d)
+      v = std::pow(v / most, power);
+  }
+  const char* path = positional[0];
+  std::FILE* out = std::fopen(path, "wb");
   if (!out) {
-    std::perror(argv[1]);
+    std::perror(path);
     return 1;
   }
   std::fprintf(out, "{\"resolution\": [%d, %d, %d], \"bounds\": [[-1, -0.5, -1], [1, 0.5, 1]],\n \"density\": [", nx, ny,
@@ -87,7 +139,7 @@ int main(int argc, char** argv)
     std::fprintf(out, "%s%s%.4g", i ? "," : "", i % 24 == 0 ? "\n" : "", d[i]);
   std::fprintf(out, "\n]}\n");
   if (std::fclose(out) != 0) {
-    std::perror(argv[1]);
+    std::perror(path);
     return 1;
   }
   return 0;
