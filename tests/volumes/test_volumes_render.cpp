@@ -14,9 +14,11 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <iostream>
 #include <numbers>
 #include <vector>
@@ -393,6 +395,34 @@ TEST_CASE("chapter 15 renders a scene without media as chapter 8 does")
   const ChapterRender with8 =
       runChapterBinary(RAYLIFE_STEP08, path, "--width 32 --height 24 --spp 32 --seed 13 --guide off", "c8");
   requireAgreement("chapter 15 against chapter 8 on mis.json", agree(with15.mean, with15.variance, with8.mean, with8.variance));
+}
+
+TEST_CASE("chapters without media (8, 13) say once that they ignore them and cross interfaces as if absent")
+{
+  // A ball of milk behind an interface before a sky of 1: a chapter that knows no media sees the sky through it.
+  const std::string path = sceneFile("no_media", R"({"camera": {"eye": [0, 0, 4], "focal": [0, 0, 0], "vfov": 40,
+    "width": 16, "height": 12}, "background": [1, 1, 1], "media": {"milk": {"sigma_a": 0.1, "sigma_s": 5}},
+    "materials": {"boundary": {"type": "interface"}},
+    "spheres": [{"center": [0, 0, 0], "radius": 1, "material": "boundary", "interior": "milk"}]})");
+  for (const std::string binary : {RAYLIFE_STEP08, RAYLIFE_STEP13}) {
+    const auto dir = std::filesystem::temp_directory_path() / ("raylife15_" + std::to_string(::getpid()) + "_nm");
+    std::filesystem::create_directories(dir);
+    const std::string image = (dir / "image.pfm").string(), err = (dir / "err.txt").string();
+    const std::string command = "'" + binary + "' '" + path + "' --spp 4 --seed 3 -o '" + image + "' 2> '" + err + "'";
+    INFO(command);
+    REQUIRE(std::system(command.c_str()) == 0);
+    std::ifstream in(err);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    INFO(text);
+    const std::string message = "1 medium (interfaces are crossed as if absent)";
+    const std::size_t at = text.find(message);
+    CHECK(at != std::string::npos);
+    CHECK(text.find(message, at + 1) == std::string::npos);
+    const Image r = readPfm(image);
+    REQUIRE(r.pixels.size() == 16 * 12 * 3);
+    CHECK(std::count(r.pixels.begin(), r.pixels.end(), 1.0f) == 16 * 12 * 3); // the sky, exactly
+    std::filesystem::remove_all(dir);
+  }
 }
 
 TEST_CASE("medium tracking: nested shapes and a non-convex closed mesh, each pixel exp(-sum of sigma_t x length)")
