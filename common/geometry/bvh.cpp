@@ -1073,63 +1073,48 @@ unsigned hitsBoxesPacket(const BvhWideNode& node, const PacketBoxRay<V>& r, floa
 }
 
 // Up to kPacket rays through the tree together: one walk, each node's boxes tested once for the packet, each leaf's
-// primitives for every ray that may still find something there (closest hit), or that is not yet blocked (any hit).
-// Rays whose signs differ from the first's, or whose constants are not all finite, walk alone. The answers in found.
-// (GCC 12, inlining the lone walks below into this function, warns that the walk's box-test constants may be read
-// before they are set; walk.start sets every one before the first read.)
-#if !defined(__clang__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
-template <bool kAnyHit, class V>
-[[gnu::flatten]] void Bvh::packet(std::span<const Ray> rays, Traversal* found) const
+// primitives for every ray that may still find something there. Rays whose signs differ from the first's, or whose
+// constants are not all finite, walk alone.
+template <class V>
+[[gnu::flatten]] void Bvh::packet(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const
 {
   const std::size_t n = rays.size();
-  // Per ray: the nearest hit so far, rounded up (a box it enters beyond that is none of its business), and whether
-  // its answer is known (a shadow ray blocked).
-  float nearest[kPacket];
-  bool done[kPacket];
-  std::size_t going = 0;
+  Traversal found[kPacket];
+  float nearest[kPacket]; // each ray's nearest hit so far, rounded up: a box it enters beyond that is none of its
   for (std::size_t i = 0; i < n; ++i) {
     found[i] = Traversal{rays[i].tmax, -1, BvhWork{}};
     if (!outside_.empty())
-      testOutside<kAnyHit, false>(rays[i], found[i]);
-    done[i] = kAnyHit && found[i].primitive >= 0;
-    going += !done[i];
+      testOutside<false, false>(rays[i], found[i]);
   }
   // The packet's intervals, from each ray's own constants.
-  bool together = !wideNodes_.empty() && going > 0;
+  bool together = !wideNodes_.empty();
   PacketBoxRay<V> packet;
   float bound[2][4][3]; // [smallest, largest][originNear, originFar, invNear, invFar][axis]
   float tmin = kInfinityF, tmax = -kInfinityF;
   BoxRay<V> single;
-  bool first = true;
   for (std::size_t i = 0; i < n && together; ++i) {
-    nearest[i] = -kInfinityF;
-    if (done[i])
-      continue;
     prepareBoxRay<V>(rays[i], found[i].t, single);
     for (int a = 0; a < 3; ++a) {
-      if (first)
+      if (i == 0)
         packet.nearRow[a] = single.nearRow[a], packet.farRow[a] = single.farRow[a];
       together = together && single.nearRow[a] == packet.nearRow[a];
       const float value[4] = {single.originNear[a][0], single.originFar[a][0], single.invNear[a][0],
                               single.invFar[a][0]};
       for (int q = 0; q < 4; ++q) {
         together = together && std::isfinite(value[q]);
-        bound[0][q][a] = first ? value[q] : std::min(bound[0][q][a], value[q]);
-        bound[1][q][a] = first ? value[q] : std::max(bound[1][q][a], value[q]);
+        bound[0][q][a] = i == 0 ? value[q] : std::min(bound[0][q][a], value[q]);
+        bound[1][q][a] = i == 0 ? value[q] : std::max(bound[1][q][a], value[q]);
       }
     }
-    first = false;
     nearest[i] = single.tmax[0];
     tmin = std::min(tmin, single.tmin[0]);
     tmax = std::max(tmax, nearest[i]);
   }
   if (!together) {
-    for (std::size_t i = 0; i < n; ++i)
-      if (!done[i])
-        traverse<kAnyHit, false, V>(rays[i], found[i]);
+    for (std::size_t i = 0; i < n; ++i) {
+      traverse<false, false, V>(rays[i], found[i]);
+      out[i] = found[i].hit();
+    }
     return;
   }
   for (int e = 0; e < 2; ++e)
@@ -1153,12 +1138,12 @@ template <bool kAnyHit, class V>
       float t[BvhWideNode::kWidth];
       unsigned hits = hitsBoxesPacket<V>(node, packet, t) & ((1u << node.boxes) - 1);
       if (hits != 0) {
-        const int bottom = stackSize;
+        const int first = stackSize;
         for (; hits != 0; hits &= hits - 1) {
           const unsigned k = unsigned(std::countr_zero(hits));
           Entry e{node.child[k], t[k]};
           int j = stackSize++;
-          for (; j > bottom && stack[j - 1].tEnter < e.tEnter; --j)
+          for (; j > first && stack[j - 1].tEnter < e.tEnter; --j)
             stack[j] = stack[j - 1];
           stack[j] = e;
         }
@@ -1168,16 +1153,9 @@ template <bool kAnyHit, class V>
     } else {
       bool changed = false;
       for (std::size_t i = 0; i < n; ++i)
-        if (!done[i] && !(current.tEnter > nearest[i]) &&
-            testLeaf<kAnyHit, false>(rays[i], current.child, found[i])) {
+        if (!(current.tEnter > nearest[i]) && testLeaf<false, false>(rays[i], current.child, found[i])) {
+          nearest[i] = floatAbove(found[i].t);
           changed = true;
-          if constexpr (kAnyHit) {
-            done[i] = true, nearest[i] = -kInfinityF;
-            if (--going == 0)
-              return;
-          } else {
-            nearest[i] = floatAbove(found[i].t);
-          }
         }
       if (changed) {
         tmax = *std::max_element(nearest, nearest + n);
@@ -1185,8 +1163,11 @@ template <bool kAnyHit, class V>
       }
     }
     do {
-      if (stackSize == 0)
+      if (stackSize == 0) {
+        for (std::size_t i = 0; i < n; ++i)
+          out[i] = found[i].hit();
         return;
+      }
       --stackSize;
     } while (stack[stackSize].tEnter > tmax);
     current = stack[stackSize];
@@ -1194,44 +1175,26 @@ template <bool kAnyHit, class V>
 }
 
 #if RAYLIFE_HAS_AVX2
-template <bool kAnyHit>
-RAYLIFE_AVX2 [[gnu::flatten]] void Bvh::packetEight(std::span<const Ray> rays, Traversal* found) const
+RAYLIFE_AVX2 [[gnu::flatten]] void Bvh::packetEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const
 {
-  packet<kAnyHit, Float8>(rays, found);
+  packet<Float8>(rays, out);
 }
 #endif
-#if !defined(__clang__)
-#pragma GCC diagnostic pop
-#endif
-
-template <bool kAnyHit> void Bvh::packets(std::span<const Ray> rays, auto&& answer) const
-{
-  Traversal found[kPacket];
-  for (std::size_t i = 0; i < rays.size(); i += kPacket) {
-    const std::span<const Ray> packetRays = rays.subspan(i, std::min(kPacket, rays.size() - i));
-#if RAYLIFE_HAS_AVX2
-    if (eightAtOnce_)
-      packetEight<kAnyHit>(packetRays, found);
-    else
-#endif
-      packet<kAnyHit, Float4>(packetRays, found);
-    for (std::size_t k = 0; k < packetRays.size(); ++k)
-      answer(i + k, found[k]);
-  }
-}
 
 void Bvh::intersectPacket(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const
 {
   if (out.size() < rays.size())
     throw std::invalid_argument("Bvh::intersectPacket: out is shorter than rays");
-  packets<false>(rays, [&](std::size_t i, const Traversal& found) { out[i] = found.hit(); });
-}
-
-void Bvh::occludedPacket(std::span<const Ray> rays, std::span<std::uint8_t> out) const
-{
-  if (out.size() < rays.size())
-    throw std::invalid_argument("Bvh::occludedPacket: out is shorter than rays");
-  packets<true>(rays, [&](std::size_t i, const Traversal& found) { out[i] = found.primitive >= 0; });
+  for (std::size_t i = 0; i < rays.size(); i += kPacket) {
+    const std::size_t n = std::min(kPacket, rays.size() - i);
+#if RAYLIFE_HAS_AVX2
+    if (eightAtOnce_) {
+      packetEight(rays.subspan(i, n), out.subspan(i, n));
+      continue;
+    }
+#endif
+    packet<Float4>(rays.subspan(i, n), out.subspan(i, n));
+  }
 }
 /// [packet]
 

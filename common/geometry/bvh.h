@@ -206,10 +206,7 @@ public:
   /// Pays for coherent rays, neighbouring pixels' camera rays: they enter nearly the same boxes. A packet whose
   /// rays' directions differ in sign on some axis (they meet the faces in another order) walks a ray at a time.
   void intersectPacket(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
-  /// occluded for each ray of `rays` (out[i] 1 where rays[i] is blocked, else 0; out.size() ≥ rays.size()), the same
-  /// answers, the rays taken in packets as by intersectPacket: shadow rays from nearby points to one lamp.
-  void occludedPacket(std::span<const Ray> rays, std::span<std::uint8_t> out) const;
-  /// Rays in one packet of intersectPacket and occludedPacket.
+  /// Rays in one packet of intersectPacket.
   static constexpr std::size_t kPacket = 16;
 
   /// intersect, also counting the work (for heat maps; the plain query pays nothing for the counting).
@@ -304,11 +301,9 @@ private:
   template <int kInFlight> void interleaveEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   // A leaf's primitives against a ray, into `found`: true when it changed (closest hit) or at a blocker (any hit).
   template <bool kAnyHit, bool kCountWork> bool testLeaf(const Ray& ray, std::uint32_t leaf, Traversal& found) const;
-  // One packet (at most kPacket rays) of intersectPacket or occludedPacket, its answers in found[0, rays.size()),
-  // with V the lanes of the box test; the eight-lane one; and the packets of a whole span, answer(i, found) each.
-  template <bool kAnyHit, class V> void packet(std::span<const Ray> rays, Traversal* found) const;
-  template <bool kAnyHit> void packetEight(std::span<const Ray> rays, Traversal* found) const;
-  template <bool kAnyHit> void packets(std::span<const Ray> rays, auto&& answer) const;
+  // intersectPacket for one packet (at most kPacket rays), with V the lanes of the box test; the eight-lane one.
+  template <class V> void packet(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
+  void packetEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   // The binary nodes a wide node made from binary interior `node` takes as its children (see collapse).
   int wideChildren(std::uint32_t node, std::uint32_t (&children)[BvhWideNode::kWidth]) const;
   std::size_t wideNodeCount(std::uint32_t node) const; // the wide nodes collapse(node) makes

@@ -169,8 +169,6 @@ struct Queues {
   std::vector<std::int32_t> primitive; // and what (a primitive's number; −1: nothing)
   std::vector<Ray> rays;                      // (camera rays, for the tree's packets)
   std::vector<std::optional<BvhHit>> hits;    // (and their answers)
-  std::vector<std::uint32_t> order;           // (shadow rays by octant, for packets: which each is,
-  std::vector<std::uint8_t> packetBlocked;    // and its answer)
   SphereHitColumns sphereHits;      // and the hit records' points, normals and error bounds
   SphereLightColumns sphereLights;  // shade: light samples towards still spheres
   PointLightColumns pointLights;    // and towards point lights
@@ -546,36 +544,13 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
 /// [connect]
 // Stage 4, connect: every shadow ray of the round at once (any hit); the light of each that gets through is added
 // to its pixel sample.
-void connect(const Stages& st, Queues& q, bool fromCameraHits, std::span<Color> out)
+void connect(const Stages& st, Queues& q, std::span<Color> out)
 {
   const ShadowRays& shadows = q.shadows;
   const std::size_t n = shadows.size();
   q.blocked.assign(n, 0);
   if (st.sphereKernels) {
     anySpheres(st.spheres, shadows.ray, n, q.blocked);
-    countRays(n);
-  } else if (fromCameraHits && st.scene.usesAccelerator()) {
-    // From where a pixel's samples landed, side by side, to the lamps: in packets, as the camera rays. A packet's
-    // rays must head the same way on every axis, so the queue is taken by octant (a counting sort, stable: a
-    // pixel's rays to one lamp stay together).
-    atLeast(q.rays, n), atLeast(q.order, n), atLeast(q.packetBlocked, n);
-    std::size_t start[9] = {};
-    auto octant = [&](std::size_t i) {
-      return std::size_t(std::signbit(shadows.ray.dx[i])) | std::size_t(std::signbit(shadows.ray.dy[i])) << 1 |
-             std::size_t(std::signbit(shadows.ray.dz[i])) << 2;
-    };
-    for (std::size_t i = 0; i < n; ++i)
-      ++start[octant(i) + 1];
-    for (std::size_t k = 1; k < 9; ++k)
-      start[k] += start[k - 1];
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t at = start[octant(i)]++;
-      q.order[at] = std::uint32_t(i);
-      q.rays[at] = shadows.ray.get(i, shadows.time[i]);
-    }
-    st.scene.accelerator.occludedPacket(std::span(q.rays).first(n), q.packetBlocked);
-    for (std::size_t k = 0; k < n; ++k)
-      q.blocked[q.order[k]] = q.packetBlocked[k];
     countRays(n);
   } else {
     for (std::size_t i = 0; i < n; ++i)
@@ -600,7 +575,7 @@ void renderWavefront(const Stages& st, Queues& q, const PrimaryRays& primary, st
     extend(st, q, bounce == 0);
     q.shadows.clear(q.paths.size());
     shade(st, bounce, maxDepth, q, out);
-    connect(st, q, bounce == 0, out);
+    connect(st, q, out);
   }
 }
 /// [wavefront]

@@ -359,7 +359,7 @@ std::vector<Ray> bundle(Random& random, const Vec3& eye, const Vec3& target, Rea
 
 } // namespace
 
-TEST_CASE("packets of rays walk the tree together and get intersect's and occluded's answers bit for bit")
+TEST_CASE("packets of rays walk the tree together and get intersect's answers bit for bit")
 {
   Random random(91);
   Mixed spheresOnly, mesh, mixed, ground;
@@ -398,29 +398,15 @@ TEST_CASE("packets of rays walk the tree together and get intersect's and occlud
       }
       for (const Ray& ray : nonFiniteRays(random, 12))
         rays.push_back(ray);
-      // Shadow rays too: from the bundles' hits (or some point along them) back to one lamp.
-      const std::size_t bundles = rays.size();
-      for (std::size_t i = 0; i < bundles; i += 3) {
-        const Vec3 lamp = Vec3(0, 25, 0) + Vec3(Real(i % 7), 0, 0);
-        const std::optional<BvhHit> h = bvh.intersect(rays[i]);
-        const Vec3 from = rays[i].origin + (h && std::isfinite(h->t) ? h->t * Real(0.999) : Real(5)) * rays[i].direction;
-        if (!std::isfinite(from.x + from.y + from.z) || glm::length(lamp - from) == 0)
-          continue;
-        rays.push_back(Ray{from, glm::normalize(lamp - from), 0, glm::length(lamp - from), 0});
-      }
       std::vector<std::optional<BvhHit>> out(rays.size(), BvhHit{-1, -7}); // not what any query answers
-      std::vector<std::uint8_t> blocked(rays.size(), 7);
       bvh.intersectPacket(rays, out);
-      bvh.occludedPacket(rays, blocked);
-      std::size_t differ = 0, hits = 0, blockedDiffer = 0;
+      std::size_t differ = 0, hits = 0;
       for (std::size_t i = 0; i < rays.size(); ++i) {
         const std::optional<BvhHit> one = bvh.intersect(rays[i]);
         hits += one.has_value();
         differ += one.has_value() != out[i].has_value() ||
                   (one && (one->primitive != out[i]->primitive || std::memcmp(&one->t, &out[i]->t, sizeof(Real))));
-        blockedDiffer += blocked[i] != std::uint8_t(bvh.occluded(rays[i]));
       }
-      CHECK(blockedDiffer == 0);
       INFO(s->spheres.size() << " spheres, " << s->triangles.size() << " triangles, "
                              << (bvh.eightAtOnce() ? "eight" : "four") << " boxes at a time, " << hits << " hits");
       CHECK(differ == 0);
@@ -432,8 +418,4 @@ TEST_CASE("packets of rays walk the tree together and get intersect's and occlud
   Bvh().intersectPacket(rays, out);
   CHECK_FALSE((out[0] || out[1] || out[2]));
   CHECK_THROWS_AS(Bvh().intersectPacket(rays, std::span(out).first(2)), std::invalid_argument);
-  std::vector<std::uint8_t> blocked(3, 1);
-  Bvh().occludedPacket(rays, blocked);
-  CHECK_FALSE((blocked[0] || blocked[1] || blocked[2]));
-  CHECK_THROWS_AS(Bvh().occludedPacket(rays, std::span(blocked).first(2)), std::invalid_argument);
 }
