@@ -355,7 +355,9 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   // `inLanes` (a diffuse surface).
   SphereLightColumns& sl = q.sphereLights;
   PointLightColumns& pl = q.pointLights;
-  sl.resize(n), pl.resize(n);
+  sl.resize(n);
+  if (!scene.lights.empty()) // (the point lights' columns only where there are some: 350 bytes a path)
+    pl.resize(n);
   std::size_t nl = 0, ng = 0, np = 0;
   auto sampleLight = [&](std::uint32_t i, const Material& m, int cell, bool inLanes) {
     const Hit& hit = q.hit[i];
