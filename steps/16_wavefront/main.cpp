@@ -11,7 +11,7 @@
 //   generate → extend (nearest hit) → shade (grouped by material: light sample, BSDF sample, roulette)
 //            → connect (shadow rays) → back to extend with the paths that go on.
 // Inside a stage the same arithmetic is done for every path, so it runs one path per SIMD lane (render/ray_stream.h:
-// eight doubles to a register with AVX-512). Each stage could be a GPU kernel as it stands (chapter 17, planned).
+// eight doubles to a register with AVX-512). Each stage could be a GPU kernel as it stands (chapter 17 makes them so).
 // A path's random numbers are still its own (seed, pixel, sample), drawn in chapter 8's order, and the kernels do the
 // scalar code's arithmetic operation for operation, so the image is chapter 8's, bit for bit, for any thread count
 // and any wavefront size.
