@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 #include <stdexcept>
+#include <thread>
 #include <type_traits>
 
 #if RAYLIFE_HAS_AVX2
@@ -91,12 +92,15 @@ int longestAxis(const Bounds3& b)
 
 class Builder {
 public:
-  // `spheres`: items numbered below it are spheres, the others triangles.
-  Builder(std::vector<BuildItem> items, int spheres, const BvhBuildOptions& options)
-      : items_(std::move(items)), spheres_(spheres), options_(options)
+  // `spheres`: items numbered below it are spheres, the others triangles. `threads`: how many may build at once
+  // (≥ 1). The items are the caller's, rearranged in place.
+  Builder(std::vector<BuildItem>& items, int spheres, const BvhBuildOptions& options, int threads)
+      : items_(items), spheres_(spheres), options_(options), threads_(std::max(threads, 1)),
+        packPriced_(items.size() - std::size_t(spheres) >= std::size_t(options.packPricedFrom))
   {
     options_.bins = std::clamp(options_.bins, 2, kMaxBins);
     options_.maxLeafSize = std::clamp(options_.maxLeafSize, 1, 255);
+    options_.maxTriangleLeafSize = std::clamp(options_.maxTriangleLeafSize, 1, 255);
   }
 
   std::vector<BvhNode> nodes;
@@ -111,16 +115,18 @@ public:
 
     // Bound the node's spheres, and their centroids (the splits choose among centroids).
     Bounds3 bounds, centroids;
+    bool anySphere = false;
     for (std::size_t i = begin; i < end; ++i) {
       bounds = bounds.merged(items_[i].bounds);
       centroids = centroids.merged(items_[i].centroid());
+      anySphere |= items_[i].index < spheres_;
     }
     for (int a = 0; a < 3; ++a) {
       nodes[nodeIndex].bounds[0][a] = roundDown(bounds.lo[a]);
       nodes[nodeIndex].bounds[1][a] = roundUp(bounds.hi[a]);
     }
 
-    std::optional<Split> split = chooseSplit(begin, end, bounds, centroids, level);
+    std::optional<Split> split = chooseSplit(begin, end, bounds, centroids, level, !anySphere);
     if (!split)
       split = byKind(begin, end); // a leaf holds one kind of primitive: split a mixed one, spheres first
     if (!split) {
@@ -130,17 +136,52 @@ public:
       return;
     }
     // An interior node: the first child follows it, the second comes after the first's whole subtree.
+    nodes[nodeIndex].count = 0;
+    if (threads_ > 1 && end - begin >= kParallelMin) {
+      nodes[nodeIndex].offset = buildInParallel(begin, split->mid, end, level + 1);
+      return;
+    }
     build(begin, split->mid, level + 1);
     const std::size_t second = nodes.size();
     build(split->mid, end, level + 1);
     nodes[nodeIndex].offset = std::uint32_t(second);
-    nodes[nodeIndex].count = 0;
   }
-
-  const std::vector<BuildItem>& items() const { return items_; }
 
 private:
   static constexpr int kMaxBins = 64;
+  // Fewest items whose two halves are worth building on two threads (a thread's start costs some 20 µs, the
+  // subtree of 4096 triangles about a millisecond).
+  static constexpr std::size_t kParallelMin = 4096;
+
+  /// [parallel]
+  // The two children's subtrees over [begin, mid) and [mid, end): the first built here, as the serial build would,
+  // while a builder of its own builds the second on a new thread (the threads shared out between them); then the
+  // second's nodes are appended after the first's, their children's indices shifted by where they land. The halves'
+  // items are disjoint ranges of the one array, and every split depends on its own range only, so the tree is the
+  // serial build's, node for node, whatever the number of threads.
+  // Returns the index of the second child.
+  std::uint32_t buildInParallel(std::size_t begin, std::size_t mid, std::size_t end, int level)
+  {
+    Builder second(items_, spheres_, options_, threads_ - threads_ / 2);
+    // (Its room reserved at once, as the root's is: grown by doubling, the copies left behind stayed in the
+    // thread's heap after the build, 40 MB of a million triangles'.)
+    second.nodes.reserve(2 * (end - mid) - 1);
+    std::thread worker([&] { second.build(mid, end, level); });
+    const int threads = threads_;
+    threads_ /= 2;
+    build(begin, mid, level);
+    threads_ = threads;
+    worker.join();
+    const auto base = std::uint32_t(nodes.size());
+    for (BvhNode n : second.nodes) {
+      if (n.count == 0)
+        n.offset += base;
+      nodes.push_back(n);
+    }
+    depth = std::max(depth, second.depth);
+    return base;
+  }
+  /// [parallel]
 
   // Items [begin, end) split into their spheres and their triangles, or nothing when they are all of one kind.
   std::optional<Split> byKind(std::size_t begin, std::size_t end)
@@ -154,8 +195,9 @@ private:
     return Split{mid};
   }
 
+  // `triangles`: the items are all triangles (their leaves are priced by packs of four).
   std::optional<Split> chooseSplit(std::size_t begin, std::size_t end, const Bounds3& bounds,
-                                   const Bounds3& centroids, int level)
+                                   const Bounds3& centroids, int level, bool triangles)
   {
     const std::size_t n = end - begin;
     if (n == 1)
@@ -165,7 +207,7 @@ private:
       return equalCounts(begin, end, longestAxis(centroids));
     if (options_.split == BvhSplit::Midpoint)
       return midpoint(begin, end, centroids);
-    return sah(begin, end, bounds, centroids);
+    return sah(begin, end, bounds, centroids, triangles);
   }
 
   // Halves the items by count along `axis` (centroid order, then index, so the result is fully determined).
@@ -201,13 +243,19 @@ private:
   //   C = C_trav + (A_L / A)·N_L·C_isect + (A_R / A)·N_R·C_isect,
   // against N·C_isect for keeping the node a leaf. The centroids are sorted into a few bins per axis, and every
   // boundary between bins is priced; the cheapest wins.
-  std::optional<Split> sah(std::size_t begin, std::size_t end, const Bounds3& bounds, const Bounds3& centroids)
+  // Triangles are tested four at a time, a pack at a time: in a big tree (BvhBuildOptions::packPricedFrom), N counts
+  // a node of triangles' packs of four, ⌈N/4⌉, so that the SAH makes leaves of full packs where it can.
+  std::optional<Split> sah(std::size_t begin, std::size_t end, const Bounds3& bounds, const Bounds3& centroids,
+                           bool triangles)
   {
     const std::size_t n = end - begin;
     const BvhCosts costs;
     const int bins = options_.bins;
     const Real area = bounds.surfaceArea();
-    const Real leafCost = Real(n) * costs.intersection;
+    const bool byPacks = triangles && packPriced_;
+    auto tests = [byPacks](std::size_t count) { return Real(byPacks ? (count + 3) / 4 : count); };
+    const Real leafCost = tests(n) * costs.intersection;
+    const std::size_t maxLeaf = std::size_t(triangles ? options_.maxTriangleLeafSize : options_.maxLeafSize);
 
     Real bestCost = kInfinity;
     int bestAxis = -1, bestBin = -1;
@@ -266,8 +314,8 @@ private:
           const std::size_t nR = rightCount[std::size_t(b + 1)];
           if (nLeft == 0 || nR == 0)
             continue;
-          const Real cost = costs.traversal + (left.surfaceArea() * Real(nLeft) +
-                                               rightArea[std::size_t(b + 1)] * Real(nR)) / area * costs.intersection;
+          const Real cost = costs.traversal + (left.surfaceArea() * tests(nLeft) +
+                                               rightArea[std::size_t(b + 1)] * tests(nR)) / area * costs.intersection;
           if (cost < bestCost) {
             bestCost = cost;
             bestAxis = axis;
@@ -278,7 +326,7 @@ private:
     }
 
     // Keep a leaf when no split pays for itself (and the leaf is small enough).
-    if (n <= std::size_t(options_.maxLeafSize) && !(bestCost < leafCost))
+    if (n <= maxLeaf && !(bestCost < leafCost))
       return std::nullopt;
     if (bestAxis < 0) // no boundary separates any centroids: split by count
       return equalCounts(begin, end, longestAxis(centroids));
@@ -296,9 +344,11 @@ private:
     return std::clamp(b, 0, options_.bins - 1);
   }
 
-  std::vector<BuildItem> items_;
+  std::vector<BuildItem>& items_;
   int spheres_;
   BvhBuildOptions options_;
+  int threads_;
+  bool packPriced_; // the tree has BvhBuildOptions::packPricedFrom triangles or more
   // sah's bins, per axis: how many centroids fall in each, and the box of their primitives.
   std::array<std::array<std::size_t, kMaxBins>, 3> binCount_;
   std::array<std::array<Bounds3, kMaxBins>, 3> binBox_;
@@ -541,6 +591,151 @@ unsigned hitsBoxes(const BvhWideNode& node, const BoxRay<V>& r, float (&tEnter)[
 }
 /// [slab]
 
+// ---- Triangles, four at a time --------------------------------------------------------------------------------
+
+/// [laneHits]
+// Four of the scene's scalars, one triangle's coordinate to a lane (two SSE registers or one AVX one for doubles).
+typedef Real RealLanes __attribute__((vector_size(4 * sizeof(Real))));
+
+// A ray prepared for the triangle test, once per query: intersectTriangle's permutation of the axes (z the
+// direction's largest component) and its shear, and the origin in the permuted axes.
+} // namespace
+struct BvhTriangleRay {
+  std::size_t kx = 0, ky = 1, kz = 2;
+  Real sx = 0, sy = 0, sz = 1; // as intersectTriangle computes them
+  Real ox = 0, oy = 0, oz = 0;
+};
+namespace {
+using TriangleRay = BvhTriangleRay;
+
+void prepareTriangleRay(const Ray& ray, TriangleRay& r)
+{
+  const Vec3 ad = glm::abs(ray.direction);
+  const int kz = ad.x > ad.y ? (ad.x > ad.z ? 0 : 2) : (ad.y > ad.z ? 1 : 2);
+  const int kx = kz == 2 ? 0 : kz + 1;
+  const int ky = kx == 2 ? 0 : kx + 1;
+  r.kx = std::size_t(kx);
+  r.ky = std::size_t(ky);
+  r.kz = std::size_t(kz);
+  r.sx = -ray.direction[kx] / ray.direction[kz];
+  r.sy = -ray.direction[ky] / ray.direction[kz];
+  r.sz = 1 / ray.direction[kz];
+  r.ox = ray.origin[kx];
+  r.oy = ray.origin[ky];
+  r.oz = ray.origin[kz];
+}
+
+// What the lanes of a pack found (laneHits): the lanes whose triangle the ray hits, at t no farther than the nearest
+// hit so far, and in float the lanes the scalar test must decide. Bit k for lane k.
+struct LaneHits {
+  unsigned hit = 0;    // hit at t[k], exactly as intersectTriangle would report it
+  unsigned retest = 0; // float only: an edge function was 0, which the scalar test decides again in double
+  RealLanes t;
+};
+
+// The watertight test (intersectTriangle) on the four triangles of a pack (Bvh::TrianglePack::corner: row
+// 3·corner + axis, each row aligned to its size), in lanes, with the same operations in the same order, so the same
+// edge functions, the same t and the same refusal of a t too close to 0, to the last bit: a lane is a hit exactly
+// where the scalar test gives one, at the same t. Lanes whose t lies beyond `nearest` are dropped (they lose to the
+// hit found already). Lanes [0, count) only.
+// T: the pack's corners' type, Real or float (converted to Real exactly as they are loaded).
+template <class T>
+[[gnu::always_inline]] inline LaneHits laneHits(const T (&corner)[9][4], std::uint32_t count, const TriangleRay& r,
+                                                const Ray& ray, Real nearest)
+{
+  // Corner c moved to the ray's origin, axes permuted, x and y sheared, as intersectTriangle does. (Each row loaded
+  // whole and aligned: GCC splits an unaligned load of 32 bytes in two, and a copy made that way and read back
+  // whole stalled the processor, a third of a query on the Cornell box.)
+  auto load = [&corner](std::size_t row, RealLanes& v) {
+    if constexpr (std::is_same_v<T, Real>) {
+      std::memcpy(&v, __builtin_assume_aligned(corner[row], sizeof(RealLanes)), sizeof v);
+    } else {
+      typedef T Lanes __attribute__((vector_size(4 * sizeof(T))));
+      Lanes narrow;
+      std::memcpy(&narrow, __builtin_assume_aligned(corner[row], sizeof(Lanes)), sizeof narrow);
+      v = __builtin_convertvector(narrow, RealLanes);
+    }
+  };
+  RealLanes x0, y0, z0, x1, y1, z1, x2, y2, z2;
+  load(r.kx, x0);
+  load(r.ky, y0);
+  load(r.kz, z0);
+  load(3 + r.kx, x1);
+  load(3 + r.ky, y1);
+  load(3 + r.kz, z1);
+  load(6 + r.kx, x2);
+  load(6 + r.ky, y2);
+  load(6 + r.kz, z2);
+  z0 = z0 - r.oz;
+  z1 = z1 - r.oz;
+  z2 = z2 - r.oz;
+  x0 = (x0 - r.ox) + r.sx * z0;
+  y0 = (y0 - r.oy) + r.sy * z0;
+  x1 = (x1 - r.ox) + r.sx * z1;
+  y1 = (y1 - r.oy) + r.sy * z1;
+  x2 = (x2 - r.ox) + r.sx * z2;
+  y2 = (y2 - r.oy) + r.sy * z2;
+  const RealLanes e0 = x1 * y2 - y1 * x2;
+  const RealLanes e1 = x2 * y0 - y2 * x0;
+  const RealLanes e2 = x0 * y1 - y0 * x1;
+  const RealLanes det = e0 + e1 + e2;
+  z0 = z0 * r.sz;
+  z1 = z1 * r.sz;
+  z2 = z2 * r.sz;
+  const RealLanes tScaled = e0 * z0 + e1 * z1 + e2 * z2;
+  const RealLanes invDet = Real(1) / det;
+  LaneHits out;
+  out.t = tScaled * invDet;
+  const auto& t = out.t;
+  auto refused = (((e0 < 0) | (e1 < 0) | (e2 < 0)) & ((e0 > 0) | (e1 > 0) | (e2 > 0))) | (det == 0) |
+                 ((det < 0) & (tScaled >= 0)) | ((det > 0) & (tScaled <= 0)) |
+                 ~((t >= ray.tmin) & (t < ray.tmax)) | (t > nearest);
+  const unsigned live = (1u << count) - 1;
+  auto bits = [live](const auto& mask) {
+    unsigned b = 0;
+    for (int k = 0; k < 4; ++k)
+      b |= unsigned(mask[k] != 0) << k;
+    return b & live;
+  };
+  if constexpr (std::is_same_v<Real, float>) {
+    const auto zero = (e0 == 0) | (e1 == 0) | (e2 == 0);
+    out.retest = bits(zero); // (its t comes from the edge functions in double: any t)
+    refused |= zero;
+  }
+  if (bits(~refused) == 0) // (the usual case: no hit, and none of what follows)
+    return out;
+  // The bound on t's rounding error, as intersectTriangle computes it (std::max(a, b) is a < b ? b : a; the
+  // magnitudes by clearing the sign bit, as std::fabs).
+  // (In place, not in helper functions: a function that takes or returns an AVX vector would change the ABI of the
+  // code built without AVX.)
+  using Bits = decltype(refused);
+  const auto magnitude = Bits{} + std::numeric_limits<std::remove_cvref_t<decltype(refused[0])>>::max();
+#define RAYLIFE_ABS(v) ((RealLanes)((Bits)(v) & magnitude))
+#define RAYLIFE_MAX(p, q) ((p) < (q) ? (q) : (p))
+#define RAYLIFE_MAX_ABS(p, q, w) RAYLIFE_MAX(RAYLIFE_ABS(p), RAYLIFE_MAX(RAYLIFE_ABS(q), RAYLIFE_ABS(w)))
+  const RealLanes maxZ = RAYLIFE_MAX_ABS(z0, z1, z2);
+  const RealLanes maxX = RAYLIFE_MAX_ABS(x0, x1, x2);
+  const RealLanes maxY = RAYLIFE_MAX_ABS(y0, y1, y2);
+  const RealLanes deltaZ = gamma<Real>(3) * maxZ;
+  const RealLanes deltaX = gamma<Real>(5) * (maxX + maxZ);
+  const RealLanes deltaY = gamma<Real>(5) * (maxY + maxZ);
+  const RealLanes deltaE = 2 * (gamma<Real>(2) * maxX * maxY + deltaY * maxX + deltaX * maxY);
+  const RealLanes maxE = RAYLIFE_MAX_ABS(e0, e1, e2);
+  const RealLanes deltaT = 3 * (gamma<Real>(3) * maxE * maxZ + deltaE * maxZ + deltaZ * maxE) * RAYLIFE_ABS(invDet);
+#undef RAYLIFE_MAX_ABS
+#undef RAYLIFE_MAX
+#undef RAYLIFE_ABS
+  out.hit = bits(~(refused | ~(t > deltaT)));
+  return out;
+}
+/// [laneHits]
+
+// Corner c (0, 1, 2) of a pack's triangle in lane `lane`, as the scene gave it.
+template <class T> [[gnu::always_inline]] inline Vec3 packCorner(const T (&corner)[9][4], int c, std::size_t lane)
+{
+  return Vec3(Real(corner[3 * c][lane]), Real(corner[3 * c + 1][lane]), Real(corner[3 * c + 2][lane]));
+}
+
 } // namespace
 
 Bvh::Bvh(const std::vector<Sphere>& spheres, const BvhBuildOptions& options)
@@ -580,7 +775,8 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
         outsideSphereIndex_.push_back(index);
       } else {
         const Triangle& tri = triangles[std::size_t(index) - spheres.size()];
-        outsideTriangles_.push_back(TrianglePrimitive{{tri.v[0], tri.v[1], tri.v[2]}, index, false});
+        outsideTriangles_.push_back(
+            OutsideTriangle{{vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]}, index});
       }
     if (outsideSpheres.size() >= kOutsideLanesMin && laneTestAvailable(LaneTest::FourAtOnce)) {
       outsideLanes_ = SphereLanes(outsideSpheres, LaneTest::FourAtOnce);
@@ -595,7 +791,10 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   // as the nodes are made, before the primitives' own copies are (the build's memory peak for a big mesh).
   std::vector<int> order(count);
   {
-    Builder builder(std::move(items), int(spheres.size()), options);
+    const int threads =
+        options.buildThreads > 0 ? options.buildThreads : int(std::max(1u, std::thread::hardware_concurrency()));
+    // (Four subtrees a thread, so that a lopsided split near the root leaves no core idle for long.)
+    Builder builder(items, int(spheres.size()), options, threads > 1 ? 4 * threads : 1);
     // Room for the most nodes a tree of `count` primitives can have (2·count − 1, leaves of one), reserved at once:
     // the pages never written are never resident, so this holds what the tree uses, where growing by doubling held
     // the old array and the new one, twice as large and written by the copy, at once (a million triangles make 1.3
@@ -606,38 +805,78 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
     nodes_ = std::move(builder.nodes);
     depth_ = builder.depth;
     for (std::size_t k = 0; k < count; ++k)
-      order[k] = builder.items()[k].index;
+      order[k] = items[k].index;
+    std::vector<BuildItem>().swap(items);
   }
 
-  // The primitives in leaf order, each kind in its own list, so that a leaf's primitives lie side by side; a
-  // leaf's offset becomes its first primitive's place in its kind's list.
-  std::vector<std::uint32_t> placeInKind(count);
+  // The primitives in leaf order: the spheres in their list, so that a leaf's spheres lie side by side (a leaf's
+  // offset becomes its first sphere's place there), the triangles four to a pack (a leaf's offset becomes its
+  // first pack's index).
   // (A still scene keeps no velocities: its queries never look at one.)
   spheres_.reserve(spheres.size());
-  triangles_.reserve(triangles.size());
-  for (std::size_t k = 0; k < count; ++k) {
-    const int index = order[k];
-    if (std::size_t(index) < spheres.size()) {
-      placeInKind[k] = std::uint32_t(spheres_.size());
-      const Sphere& s = spheres[std::size_t(index)];
-      spheres_.push_back(SpherePrimitive{s.center, s.radius, index, false});
-      if (moving)
-        velocities_.push_back(s.velocity);
-    } else {
-      placeInKind[k] = std::uint32_t(triangles_.size());
-      const Triangle& tri = triangles[std::size_t(index) - spheres.size()];
-      triangles_.push_back(TrianglePrimitive{{tri.v[0], tri.v[1], tri.v[2]}, index, false});
-    }
-  }
+  std::size_t packCount = 0;
   for (BvhNode& n : nodes_)
     if (n.count > 0) {
       n.triangles = std::size_t(order[n.offset]) >= spheres.size() ? 1 : 0;
-      n.offset = placeInKind[n.offset];
+      packCount += n.triangles ? (n.count + 3u) / 4u : 0;
     }
+  // Corners that are all floats exactly are kept as floats: the same values in half the bytes. (In a float build
+  // packs_ holds floats already.)
+  // (The rounded value through a volatile float: GCC 12, vectorising a loop of such round trips, dropped the
+  // rounding, in a test.)
+  bool floatCorners = !std::is_same_v<Real, float> && packCount > 0;
+  for (std::size_t v = 0; floatCorners && v < vertices.size(); ++v)
+    for (int axis = 0; axis < 3; ++axis) {
+      const volatile float rounded = float(vertices[v][axis]);
+      floatCorners = floatCorners && Real(rounded) == vertices[v][axis];
+    }
+  // A leaf's triangles [first, first + leafSize) of `order` into packs, appended to `packs`.
+  auto addPacks = [&](auto& packs, std::size_t first, std::size_t leafSize) {
+    using Pack = typename std::remove_reference_t<decltype(packs)>::value_type;
+    using T = std::remove_all_extents_t<decltype(Pack::corner)>;
+    for (std::size_t k = first; k < first + leafSize; k += 4) {
+      Pack pack{};
+      pack.count = std::uint32_t(std::min<std::size_t>(4, first + leafSize - k));
+      for (std::size_t lane = 0; lane < pack.count; ++lane) {
+        const int index = order[k + lane];
+        const Triangle& tri = triangles[std::size_t(index) - spheres.size()];
+        for (int corner = 0; corner < 3; ++corner)
+          for (int axis = 0; axis < 3; ++axis)
+            pack.corner[3 * corner + axis][lane] = T(vertices[tri.v[std::size_t(corner)]][axis]);
+        pack.index[lane] = index;
+      }
+      packs.push_back(pack);
+    }
+    packs.back().count |= kLastPack;
+  };
+  if (floatCorners)
+    floatPacks_.reserve(packCount);
+  else
+    packs_.reserve(packCount);
+  for (BvhNode& n : nodes_) {
+    if (n.count == 0)
+      continue;
+    const std::size_t first = n.offset;
+    if (!n.triangles) {
+      n.offset = std::uint32_t(spheres_.size());
+      for (std::size_t k = first; k < first + n.count; ++k) {
+        const auto index = std::size_t(order[k]);
+        const Sphere& s = spheres[index];
+        spheres_.push_back(SpherePrimitive{s.center, s.radius, int(index), false});
+        if (moving)
+          velocities_.push_back(s.velocity);
+      }
+      continue;
+    }
+    if (floatCorners) {
+      n.offset = std::uint32_t(floatPacks_.size());
+      addPacks(floatPacks_, first, n.count);
+    } else {
+      n.offset = std::uint32_t(packs_.size());
+      addPacks(packs_, first, n.count);
+    }
+  }
   std::vector<int>().swap(order);
-  std::vector<std::uint32_t>().swap(placeInKind);
-  if (!triangles.empty())
-    vertices_.assign(vertices.begin(), vertices.end());
 
   // The tree the queries walk: up to eight children to a node, counted first, so that the array is allocated once at
   // its size (grown by doubling, it held up to twice that, and its last copy was the build's memory peak: 125 MB for
@@ -716,7 +955,6 @@ std::uint32_t Bvh::collapse(std::uint32_t node)
     const BvhNode& child = nodes_[children[k]];
     if (child.count > 0 && child.triangles) {
       wide.child[k] = BvhWideNode::kLeaf | BvhWideNode::kTriangles | child.offset;
-      triangles_[child.offset + child.count - 1u].lastInLeaf = true;
     } else if (child.count > 0) {
       wide.child[k] = BvhWideNode::kLeaf | child.offset;
       spheres_[child.offset + child.count - 1u].lastInLeaf = true;
@@ -738,6 +976,7 @@ template <class V> struct BvhWalk {
     float tEnter;
   };
   BoxRay<V> boxRay;
+  TriangleRay triangleRay; // set when the tree holds triangles
   float tNearest;            // the nearest hit so far, rounded up to a float: a box entered beyond it is skipped
   std::uint32_t current = 0; // the node (or leaf) to visit next: the root first
   int stackSize = 0;
@@ -746,10 +985,12 @@ template <class V> struct BvhWalk {
   Entry* stack = nullptr;
   static constexpr int kStackSize = (BvhWideNode::kWidth - 1) * Bvh::kMaxDepth + 1;
 
-  // Starts the walk of `ray` at the root, boxes beyond `tmax` skipped.
-  void start(const Ray& ray, Real tmax)
+  // Starts the walk of `ray` at the root, boxes beyond `tmax` skipped; `triangles`: the tree has triangles.
+  void start(const Ray& ray, Real tmax, bool triangles)
   {
     prepareBoxRay<V>(ray, tmax, boxRay);
+    if (triangles)
+      prepareTriangleRay(ray, triangleRay);
     tNearest = boxRay.tmax[0];
     current = 0;
     stackSize = 0;
@@ -768,37 +1009,69 @@ template <bool kAnyHit, bool kCountWork, class V>
   BvhWalk<V> walk;
   typename BvhWalk<V>::Entry stack[BvhWalk<V>::kStackSize];
   walk.stack = stack;
-  walk.start(ray, found.t);
+  walk.start(ray, found.t, !packs_.empty() || !floatPacks_.empty());
   // Depth first, a node at a time.
   while (visit<kAnyHit, kCountWork, V>(ray, walk, found)) {
+  }
+}
+
+// The triangles of a leaf, packs[first] on, a pack of four at a time: the lanes give the hits, as the scalar test
+// would (in float, a lane with an edge function of 0 gets the scalar test itself). As testLeaf.
+template <bool kAnyHit, bool kCountWork, class Pack>
+[[gnu::always_inline]] inline bool Bvh::testPacks(const std::vector<Pack>& packs, std::uint32_t first,
+                                                  const Ray& ray, const TriangleRay& triangleRay,
+                                                  Traversal& found) const
+{
+  bool changed = false;
+  auto take = [&found, &changed](Real t, int index) {
+    if (kAnyHit || t < found.t || (t == found.t && index < found.primitive)) {
+      found.t = t;
+      found.primitive = index;
+      changed = true;
+    }
+  };
+  for (std::uint32_t i = first;; ++i) {
+    const Pack& pack = packs[i];
+    if constexpr (kCountWork)
+      found.work.primitivesTested += pack.count & ~kLastPack;
+    const LaneHits lanes = laneHits(pack.corner, pack.count & ~kLastPack, triangleRay, ray, found.t);
+    for (unsigned hits = lanes.hit; hits != 0; hits &= hits - 1) {
+      const auto lane = std::size_t(std::countr_zero(hits));
+      take(lanes.t[lane], pack.index[lane]);
+      if (kAnyHit)
+        return true;
+    }
+    // (Float: a lane with an edge function of 0, decided by the scalar test. Never in double.)
+    for (unsigned retest = lanes.retest; retest != 0; retest &= retest - 1) {
+      const auto lane = std::size_t(std::countr_zero(retest));
+      const std::optional<TriangleHit<Real>> h = intersectTriangle(
+          ray.origin, ray.direction, packCorner(pack.corner, 0, lane), packCorner(pack.corner, 1, lane),
+          packCorner(pack.corner, 2, lane), ray.tmin, ray.tmax);
+      if (h) {
+        take(h->t, pack.index[lane]);
+        if (kAnyHit)
+          return true;
+      }
+    }
+    if (pack.count & kLastPack)
+      return changed;
   }
 }
 
 // The primitives of leaf `leaf` (a BvhWideNode::child with kLeaf set) against `ray`, into `found`. Closest hit: keep
 // the nearer hit, or on a tie the lower number (as the brute-force loop's strict "nearer" does), so the answer does
 // not depend on the order of the tree; true when `found` changed. Any hit: true at the first blocker.
+// `triangleRay`: the ray prepared for the triangles (prepareTriangleRay), when the tree has some.
 template <bool kAnyHit, bool kCountWork>
-[[gnu::always_inline]] inline bool Bvh::testLeaf(const Ray& ray, std::uint32_t leaf, Traversal& found) const
+[[gnu::always_inline]] inline bool Bvh::testLeaf(const Ray& ray, std::uint32_t leaf, const TriangleRay& triangleRay,
+                                                 Traversal& found) const
 {
-  bool changed = false;
   if (leaf & BvhWideNode::kTriangles) {
-    for (std::uint32_t i = leaf & BvhWideNode::kIndexMask;; ++i) {
-      const TrianglePrimitive& p = triangles_[i];
-      if constexpr (kCountWork)
-        found.work.primitivesTested += 1;
-      const std::optional<TriangleHit<Real>> h = intersectTriangle(
-          ray.origin, ray.direction, vertices_[p.v[0]], vertices_[p.v[1]], vertices_[p.v[2]], ray.tmin, ray.tmax);
-      if (h && (kAnyHit || h->t < found.t || (h->t == found.t && p.index < found.primitive))) {
-        found.t = h->t;
-        found.primitive = p.index;
-        if constexpr (kAnyHit)
-          return true;
-        changed = true;
-      }
-      if (p.lastInLeaf)
-        return changed;
-    }
+    const std::uint32_t first = leaf & BvhWideNode::kIndexMask;
+    return floatPacks_.empty() ? testPacks<kAnyHit, kCountWork>(packs_, first, ray, triangleRay, found)
+                               : testPacks<kAnyHit, kCountWork>(floatPacks_, first, ray, triangleRay, found);
   }
+  bool changed = false;
   for (std::uint32_t i = leaf & BvhWideNode::kIndexMask;; ++i) {
     const SpherePrimitive& p = spheres_[i];
     if constexpr (kCountWork)
@@ -873,7 +1146,7 @@ template <bool kAnyHit, bool kCountWork, class V>
       walk.stackSize = stackSize;
       return true;
     }
-  } else if (testLeaf<kAnyHit, kCountWork>(ray, current, found)) {
+  } else if (testLeaf<kAnyHit, kCountWork>(ray, current, walk.triangleRay, found)) {
     if constexpr (kAnyHit) // a shadow ray needs no more than one blocker
       return false;
     walk.tNearest = floatAbove(found.t);
@@ -920,12 +1193,12 @@ template <bool kAnyHit, bool kCountWork> void Bvh::testOutside(const Ray& ray, T
         return;
     }
   }
-  for (const TrianglePrimitive& p : outsideTriangles_) {
+  for (const OutsideTriangle& p : outsideTriangles_) {
     if constexpr (kCountWork)
       found.work.primitivesTested += 1;
     // (Up to found.t: a triangle's number is above every sphere's, so on a tie the sphere stays.)
     const std::optional<TriangleHit<Real>> h = intersectTriangle(
-        ray.origin, ray.direction, vertices_[p.v[0]], vertices_[p.v[1]], vertices_[p.v[2]], ray.tmin, found.t);
+        ray.origin, ray.direction, p.corner[0], p.corner[1], p.corner[2], ray.tmin, found.t);
     if (h) {
       found.t = h->t;
       found.primitive = p.index;
@@ -998,7 +1271,7 @@ template <int kInFlight, class V>
         out[next] = found[k].hit();
         continue;
       }
-      walks[k].start(ray, found[k].t);
+      walks[k].start(ray, found[k].t, !packs_.empty() || !floatPacks_.empty());
       which[k] = next++;
       return true;
     }
@@ -1081,10 +1354,13 @@ template <class V>
   const std::size_t n = rays.size();
   Traversal found[kPacket];
   float nearest[kPacket]; // each ray's nearest hit so far, rounded up: a box it enters beyond that is none of its
+  TriangleRay triangleRays[kPacket];
   for (std::size_t i = 0; i < n; ++i) {
     found[i] = Traversal{rays[i].tmax, -1, BvhWork{}};
     if (!outside_.empty())
       testOutside<false, false>(rays[i], found[i]);
+    if (!packs_.empty() || !floatPacks_.empty())
+      prepareTriangleRay(rays[i], triangleRays[i]);
   }
   // The packet's intervals, from each ray's own constants.
   bool together = !wideNodes_.empty();
@@ -1153,7 +1429,8 @@ template <class V>
     } else {
       bool changed = false;
       for (std::size_t i = 0; i < n; ++i)
-        if (!(current.tEnter > nearest[i]) && testLeaf<false, false>(rays[i], current.child, found[i])) {
+        if (!(current.tEnter > nearest[i]) &&
+            testLeaf<false, false>(rays[i], current.child, triangleRays[i], found[i])) {
           nearest[i] = floatAbove(found[i].t);
           changed = true;
         }
@@ -1240,6 +1517,15 @@ BvhTracedOcclusion Bvh::occludedWithWork(const Ray& ray) const
   return BvhTracedOcclusion{r.primitive >= 0, r.work};
 }
 
+std::size_t Bvh::memoryBytes() const
+{
+  return wideNodes_.size() * sizeof(BvhWideNode) + packs_.size() * sizeof(TrianglePack) +
+         floatPacks_.size() * sizeof(FloatTrianglePack) + spheres_.size() * sizeof(SpherePrimitive) +
+         velocities_.size() * sizeof(Vec3) + outside_.size() * sizeof(int) +
+         outsideSpheres_.size() * sizeof(SpherePrimitive) + outsideSphereIndex_.size() * sizeof(int) +
+         outsideTriangles_.size() * sizeof(OutsideTriangle) + outsideLanes_.size() * 4 * sizeof(Real);
+}
+
 Real Bvh::sahCost(const BvhCosts& costs) const
 {
   if (nodes_.empty())
@@ -1260,10 +1546,23 @@ std::vector<std::uint32_t> Bvh::leafPrimitives(bool triangles) const
     for (const auto& p : primitives)
       list.push_back(std::uint32_t(p.index) | (p.lastInLeaf ? kLastInLeaf : 0u));
   };
-  if (triangles)
-    add(triangles_);
-  else
+  if (!triangles) {
     add(spheres_);
+    return list;
+  }
+  // Four entries a pack, so that a leaf child's pack index k starts at entry 4k; a pack's lanes past its count
+  // repeat its last triangle (tested again, it changes nothing: the same t loses the tie to itself).
+  auto addPacks = [&list](const auto& packs) {
+    for (const auto& pack : packs) {
+      const std::uint32_t count = pack.count & ~kLastPack;
+      for (std::uint32_t lane = 0; lane < 4; ++lane) {
+        const bool last = (pack.count & kLastPack) != 0 && lane == 3;
+        list.push_back(std::uint32_t(pack.index[std::min(lane, count - 1)]) | (last ? kLastInLeaf : 0u));
+      }
+    }
+  };
+  addPacks(packs_);
+  addPacks(floatPacks_);
   return list;
 }
 

@@ -52,12 +52,13 @@ struct Bounds3 {
 /// One node of the tree as the builder makes it (binary): 32 bytes, so two share a 64-byte cache line.
 ///
 /// The nodes are stored depth first: an interior node's first child is the next node in the array and
-/// `offset` is the index of its second child; a leaf's primitives are [offset, offset + count) of its kind's list
-/// (spheres, or triangles when `triangles` is 1), in the tree's order.
+/// `offset` is the index of its second child; a leaf of spheres holds spheres [offset, offset + count) of the tree's
+/// list, in the tree's order; a leaf of triangles (`triangles` 1) holds its count triangles four to a pack, in
+/// ⌈count/4⌉ packs from pack `offset` on.
 /// Bounds are float, rounded outwards from the scene's scalar, so they hold everything the exact box holds.
 struct alignas(32) BvhNode {
   glm::vec3 bounds[2];        ///< Box: [0] its smallest corner (rounded down), [1] its largest (rounded up).
-  std::uint32_t offset;       ///< Leaf: first primitive. Interior: index of the second child.
+  std::uint32_t offset;       ///< Leaf: first sphere, or first pack of triangles. Interior: index of the second child.
   std::uint16_t count;        ///< Leaf: number of primitives, ≥ 1. Interior: 0.
   std::uint16_t triangles = 0; ///< Leaf: 1 when its primitives are triangles, 0 for spheres. Interior: 0.
 };
@@ -80,8 +81,9 @@ struct alignas(64) BvhWideNode {
   static constexpr std::uint32_t kIndexMask = 0x3fffffffu;
 
   float bounds[6 * kWidth]; ///< Child k's box: coordinate (face, axis) at [(3·face + axis)·kWidth + k].
-  /// Per child: an interior child's index in Bvh::wideNodes(), or kLeaf | the index of a leaf's first
-  /// primitive in its kind's list, with kTriangles set for a leaf of triangles (a leaf's primitives lie side by
+  /// Per child: an interior child's index in Bvh::wideNodes(), or kLeaf | the index of a leaf's first sphere in
+  /// the tree's list of spheres, or kLeaf | kTriangles | the index of a leaf's first pack of four triangles (a
+  /// leaf's spheres, or its packs, lie side by
   /// side). 0 in an empty slot.
   std::uint32_t child[kWidth];
   std::uint32_t boxes;       ///< Children, in slots [0, boxes): 2 to kWidth (1 in the root of a one-leaf tree).
@@ -103,9 +105,22 @@ struct BvhBuildOptions {
   BvhSplit split = BvhSplit::Sah; ///< Splitting rule.
   int bins = 12;                  ///< SAH bins per axis over the centroids' box, in [2, 64].
   int maxLeafSize = 4;            ///< A node with more primitives than this is always split, in [1, 255].
+  /// The same for a node of triangles only, in [1, 255]. (8, two packs a leaf, made a third fewer wide nodes but
+  /// slower camera rays on a million triangles: mesh_bench, 0.60 against 0.75 of Embree's speed in one noisy run.)
+  int maxTriangleLeafSize = 4;
+  /// From this many triangles on, the SAH prices a leaf of triangles by its packs of four (⌈n/4⌉: a pack is tested
+  /// at once), below it by its triangles, ≥ 0. A big tree's time goes on cache misses, one a node and one a pack
+  /// whatever the pack holds, and leaves of full packs take half the bytes (a million triangles: 105 bytes a triangle
+  /// against 267, and faster rays). A small one stays in the caches, where the arithmetic decides and smaller leaves
+  /// win: priced by packs, chapter 6 ran 5–13 % slower in the Cornell box and on chapter 10's model (3,732
+  /// triangles), while on a 60,000-triangle blob mesh_bench's rays were a third faster priced by packs.
+  int packPricedFrom = 1 << 14;
   /// Test a node's eight boxes in one AVX2 instruction where the CPU has AVX2; false, or a CPU without it: four
   /// at a time (SSE). Either way the same hits and the same work, bit for bit; only the speed differs.
   bool eightAtOnce = true;
+  /// Threads the build may use, ≥ 1, or 0 for every core. The top levels' subtrees are built side by side; the tree
+  /// is the same, node for node, whatever the number.
+  int buildThreads = 0;
   /// Keep the binary tree (nodes(), sahCost()) after the wide tree is made from it. Off, it is freed: the queries
   /// never use it, and it is 32 bytes a node (about 42 MB for a million triangles).
   bool keepBinaryTree = false;
@@ -163,6 +178,7 @@ struct BvhTracedOcclusion {
 };
 
 template <class V> struct BvhWalk; // one ray's walk through the tree (bvh.cpp)
+struct BvhTriangleRay;              // a ray prepared for the triangles' test (bvh.cpp)
 
 /// A bounding volume hierarchy over a fixed set of spheres and triangles. Immutable after construction, so any
 /// number of threads may query it at once.
@@ -232,14 +248,19 @@ public:
   /// The tree the queries walk (up to BvhWideNode::kWidth children per node), root first, every node before
   /// its children (empty for an empty tree).
   const std::vector<BvhWideNode>& wideNodes() const { return wideNodes_; }
-  /// The tree's primitives of one kind in the order its leaves hold them (a leaf child of a wide node indexes this
-  /// list: BvhWideNode::child), by number, with kLastInLeaf set on the last of each leaf. For a walk of the tree
+  /// The tree's primitives of one kind in the order its leaves hold them, by number, with kLastInLeaf set on the
+  /// last entry of each leaf. Spheres: a leaf child of a wide node (BvhWideNode::child) indexes this list. Triangles:
+  /// four entries per pack of four (a leaf child's pack index k starts at entry 4k), the lanes past a pack's count
+  /// repeating its last triangle. For a walk of the tree
   /// written elsewhere (chapter 17's kernels). @param triangles The triangles' list; false: the spheres'.
   std::vector<std::uint32_t> leafPrimitives(bool triangles) const;
   /// Set in a leafPrimitives entry on the last primitive of its leaf.
   static constexpr std::uint32_t kLastInLeaf = 0x80000000u;
   /// True when the queries test a node's boxes eight at a time (BvhBuildOptions::eightAtOnce, on a CPU with AVX2).
   bool eightAtOnce() const { return eightAtOnce_; }
+  /// The bytes the queries use: the wide nodes, the leaves' spheres and triangle packs, the primitives outside the
+  /// tree (not the binary tree, which only BvhBuildOptions::keepBinaryTree keeps). mesh_bench's bytes a triangle.
+  std::size_t memoryBytes() const;
   /// Deepest level of the tree (the root is level 1; 0 for an empty tree). Always below kMaxDepth.
   int depth() const { return depth_; }
 
@@ -260,13 +281,28 @@ private:
     int index;
     bool lastInLeaf; // its leaf's primitives end here
   };
-  /// A triangle as the tree stores it: its corners' indices into the tree's copy of the vertices (20 bytes, where
-  /// the corners themselves would be 80: for a million triangles 48 MB less, and a quarter of the memory traffic on
-  /// the way to a leaf), and its number.
-  struct TrianglePrimitive {
-    std::uint32_t v[3];
+  /// The triangles of a leaf as the tree stores them: four to a pack, their corners side by side by coordinate (row
+  /// 3·corner + axis holds that coordinate of the four triangles), so that one load brings a coordinate of all four
+  /// and the watertight test runs in lanes. The corners are copies (the leaf's data in one place: the
+  /// walk reaches them with one dependent load, where indices into a vertex array took two, and on a million
+  /// triangles those two misses were half a query's time), and their primitive numbers. Lanes past `count` are
+  /// zero and never reported. A pack starts a cache line (and its rows are aligned: one aligned load each). T: the
+  /// corners' type, Real, or float where every corner is a float (below).
+  template <class T> struct alignas(64) TrianglePackOf {
+    T corner[9][4];
+    int index[4];
+    std::uint32_t count; // triangles in the pack, 1 to 4; kLastPack set in the leaf's last pack
+  };
+  using TrianglePack = TrianglePackOf<Real>;
+  /// A pack whose corners are floats: what the tree keeps, in a double build, when every corner of the scene is a
+  /// float exactly (a mesh read from a file of floats and placed as it was). The lanes load them as Real, the same
+  /// values, so the same hits to the last bit, in 192 bytes a pack (three cache lines) where doubles take 320.
+  using FloatTrianglePack = TrianglePackOf<float>;
+  static constexpr std::uint32_t kLastPack = 0x80000000u;
+  /// A triangle kept out of the tree: its corners and its number.
+  struct OutsideTriangle {
+    Vec3 corner[3];
     int index;
-    bool lastInLeaf;
   };
 
   /// What one traversal found: the nearest hit (closest-hit) or any hit (any-hit), and the work if counted.
@@ -300,7 +336,12 @@ private:
   void interleave(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   template <int kInFlight> void interleaveEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   // A leaf's primitives against a ray, into `found`: true when it changed (closest hit) or at a blocker (any hit).
-  template <bool kAnyHit, bool kCountWork> bool testLeaf(const Ray& ray, std::uint32_t leaf, Traversal& found) const;
+  template <bool kAnyHit, bool kCountWork>
+  bool testLeaf(const Ray& ray, std::uint32_t leaf, const BvhTriangleRay& triangleRay, Traversal& found) const;
+  // testLeaf's leaf of triangles, its packs from packs[first] on.
+  template <bool kAnyHit, bool kCountWork, class Pack>
+  bool testPacks(const std::vector<Pack>& packs, std::uint32_t first, const Ray& ray,
+                 const BvhTriangleRay& triangleRay, Traversal& found) const;
   // intersectPacket for one packet (at most kPacket rays), with V the lanes of the box test; the eight-lane one.
   template <class V> void packet(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   void packetEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
@@ -312,8 +353,8 @@ private:
   std::vector<BvhNode> nodes_;
   std::vector<BvhWideNode> wideNodes_;
   std::vector<SpherePrimitive> spheres_;
-  std::vector<TrianglePrimitive> triangles_;
-  std::vector<Vec3> vertices_; // the triangles' corners (a copy)
+  std::vector<TrianglePack> packs_; // the leaves' triangles, a leaf's packs side by side
+  std::vector<FloatTrianglePack> floatPacks_; // instead of packs_ where every corner is a float (Real double)
   std::vector<Vec3> velocities_; // per entry of spheres_ when some sphere moves; empty for a still scene
   std::vector<int> outside_;   // the primitives kept out of the tree, by number, increasing
   // Those of them that are spheres: four at a time where the CPU can (AVX2), from kOutsideLanesMin spheres;
@@ -322,8 +363,8 @@ private:
   SphereLanes outsideLanes_;
   std::vector<SpherePrimitive> outsideSpheres_;
   std::vector<int> outsideSphereIndex_; // their numbers, by place in outsideLanes_
-  std::vector<TrianglePrimitive> outsideTriangles_;   // those that are triangles (corners in vertices_)
-  // spheres_, triangles_ and outside_ together, counted once: every query of the scene asks (the sizes of
+  std::vector<OutsideTriangle> outsideTriangles_; // those that are triangles
+  // spheres_, the packs' triangles and outside_ together, counted once: every query of the scene asks (the sizes of
   // vectors of 40- and 20-byte records are a multiplication each).
   std::size_t primitiveCount_ = 0;
   int depth_ = 0;

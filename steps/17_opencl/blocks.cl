@@ -419,9 +419,10 @@ float2 traceRay(const Geometry* g, float3 o, float3 d, float tmax, int anyHit)
       continue; // found something nearer since this was pushed
     const uint item = stack[top];
     if (item & kLeaf) {
-      // A leaf: its primitives lie side by side in their kind's list, the last one marked.
+      // A leaf: its primitives lie side by side in their kind's list, the last one marked (triangles four to a
+      // pack: the child holds the leaf's first pack, Bvh::leafPrimitives).
       const int triangles = (item & kTriangles) != 0;
-      for (uint i = item & kIndexMask;; ++i) {
+      for (uint i = triangles ? 4 * (item & kIndexMask) : item & kIndexMask;; ++i) {
         const uint e = triangles ? g->leafTriangles[i] : g->leafSpheres[i];
         const int p = (int)(e & ~kLastInLeaf);
         const float t = intersectPrimitive(g, p, o, d, 0.0f, best);
