@@ -514,11 +514,17 @@ Child startRender(const std::vector<std::string>& args, const fs::path& dir, con
 void checkInterruptedRender(int sig, const std::string& binary = kStep04, const std::string& scene = RAYLIFE_TEST_SCENE)
 {
   const TempDir dir, capture;
-  std::vector<std::string> args = {"--time", "60", "--width", "64", "--height", "48", "-o", "out.png", "-o", "out.pfm"};
+  // The signal comes once the render has a whole pass: its first preview, written between passes (after about two
+  // seconds), says so. (A fixed wait is not enough: a sanitized build's setup alone may outlast it.)
+  const fs::path preview = capture.path() / "preview.png";
+  std::vector<std::string> args = {"--time", "60", "--width", "64", "--height", "48", "-o", "out.png", "-o", "out.pfm",
+                                   "--preview", preview.string()};
   if (!scene.empty())
     args.insert(args.begin(), scene);
   const Child child = startRender(args, dir.path(), capture.path(), binary);
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(50);
+  while (!fs::exists(preview) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   REQUIRE(::kill(child.pid, sig) == 0);
   const Outcome o = wait(child);
   CHECK(o.signal == 0);
