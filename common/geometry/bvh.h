@@ -345,6 +345,8 @@ private:
   // intersectPacket for one packet (at most kPacket rays), with V the lanes of the box test; the eight-lane one.
   template <class V> void packet(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   void packetEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
+  // Asks the memory for a node's child (BvhWideNode::child): its node, or its leaf's first pack or sphere.
+  void prefetchChild(std::uint32_t child) const;
   // The binary nodes a wide node made from binary interior `node` takes as its children (see collapse).
   int wideChildren(std::uint32_t node, std::uint32_t (&children)[BvhWideNode::kWidth]) const;
   std::size_t wideNodeCount(std::uint32_t node) const; // the wide nodes collapse(node) makes
