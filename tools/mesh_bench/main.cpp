@@ -4,10 +4,13 @@
 // the same run, and reports the ratio and how often the two agree. Embree is a yardstick here, nothing more: no
 // chapter uses it.
 //
-// usage: mesh_bench MESH.ply|MESH.obj [--size WxH] [--seconds S] [--seed N] [--no-embree] [--check]
+// usage: mesh_bench MESH.ply|MESH.obj [--size WxH] [--seconds S] [--seed N] [--build-rounds R] [--no-embree]
+//                   [--check]
 //   Rays: a camera looking at the mesh from outside its bounding sphere, one ray through each pixel (W×H, default
 //   512x512), and from every camera hit one ray in a cosine-distributed direction about the surface's normal (the
 //   rays a diffuse bounce makes). Each query set is timed for about S seconds (default 1), best of three rounds.
+//   The builds are timed again on one thread and on every core, best of R rounds (default 2), raylife's and
+//   Embree's each on its best thread count, and their ratio printed: the queries run on one thread, a build may not.
 //   --check: exit 1 if raylife and Embree disagree (hit, or distance) on more than 0.1 % of the rays.
 #include "core/rng.h"
 #include "core/sampling.h"
@@ -32,6 +35,7 @@
 #include <functional>
 #include <limits>
 #include <string>
+#include <thread>
 #include <vector>
 
 using namespace raylife;
@@ -94,6 +98,7 @@ struct Options {
   int width = 512, height = 512;
   double budget = 1;
   std::uint64_t seed = 1;
+  int buildRounds = 2; // each build timed this many times on one thread and on every core, the best kept
   bool embree = true;
   bool check = false; // exit 1 when raylife and Embree disagree on more than 0.1 % of the rays
 };
@@ -112,6 +117,10 @@ bool parse(int argc, char** argv, Options& o)
         return false;
     } else if (arg == "--seed" && i + 1 < argc) {
       o.seed = std::strtoull(argv[++i], nullptr, 10);
+    } else if (arg == "--build-rounds" && i + 1 < argc) {
+      o.buildRounds = std::atoi(argv[++i]);
+      if (o.buildRounds < 1 || o.buildRounds > 100)
+        return false;
     } else if (arg == "--check") {
       o.check = true;
     } else if (arg == "--no-embree") {
@@ -131,8 +140,8 @@ int main(int argc, char** argv)
 {
   Options o;
   if (!parse(argc, argv, o)) {
-    std::fprintf(stderr, "usage: mesh_bench MESH.ply|MESH.obj [--size WxH] [--seconds S] [--seed N] [--no-embree] "
-                         "[--check]\n");
+    std::fprintf(stderr, "usage: mesh_bench MESH.ply|MESH.obj [--size WxH] [--seconds S] [--seed N] "
+                         "[--build-rounds R] [--no-embree] [--check]\n");
     return 2;
   }
   const double baseline = peakMegabytes();
@@ -169,6 +178,30 @@ int main(int argc, char** argv)
   std::printf("memory: mesh %.1f + tree %.1f = %.1f bytes a triangle\n", meshBytes / double(triangles.size()),
               double(bvh.memoryBytes()) / double(triangles.size()),
               (meshBytes + double(bvh.memoryBytes())) / double(triangles.size()));
+
+  // The build again on one thread and on every core, best of the rounds, and the tree's SAH cost (the binary tree
+  // kept for it). The trees must be the same whatever the threads.
+  const int cores = int(std::max(1u, std::thread::hardware_concurrency()));
+  double ourBuild[2] = {1e30, 1e30}; // one thread, every core: best wall-clock seconds
+  double sah = 0;
+  bool sameTree = true;
+  for (int round = 0; round < o.buildRounds; ++round)
+    for (int k = 0; k < 2; ++k) {
+      BvhBuildOptions options;
+      options.buildThreads = k == 0 ? 1 : cores;
+      options.keepBinaryTree = true;
+      const auto start = Clock::now();
+      const Bvh again(std::span<const Sphere>(), mesh.positions, triangles, options);
+      ourBuild[k] = std::min(ourBuild[k], seconds(start));
+      sah = again.sahCost();
+      sameTree = sameTree && again.wideNodes().size() == bvh.wideNodes().size() &&
+                 std::memcmp(again.wideNodes().data(), bvh.wideNodes().data(),
+                             bvh.wideNodes().size() * sizeof(BvhWideNode)) == 0;
+    }
+  const int ourBest = ourBuild[1] < ourBuild[0] ? 1 : 0;
+  std::printf("raylife BVH build, best of %d: %.3f s on 1 thread, %.3f s on %d; SAH cost %.4f; the same wide nodes "
+              "whatever the threads: %s\n",
+              o.buildRounds, ourBuild[0], ourBuild[1], cores, double(sah), sameTree ? "yes" : "NO");
 
   // ---- The rays ---------------------------------------------------------------------------------------------
   Vec3 lo(kInfinity), hi(-kInfinity);
@@ -232,29 +265,57 @@ int main(int argc, char** argv)
 #if RAYLIFE_EMBREE
   if (o.embree) {
     // ---- Embree: the same triangles (in float, as Embree stores them), the same rays ----------------------------
+    // The scene is built on a device of one thread (its queries run there, as raylife's do) and, timed only, on
+    // one of every core: best of the rounds on each.
     RTCDevice device = rtcNewDevice("threads=1");
-    RTCScene scene = rtcNewScene(device);
-    RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                                 RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                                                 mesh.positions.size()));
-    for (std::size_t i = 0; i < mesh.positions.size(); ++i)
-      for (int c = 0; c < 3; ++c)
-        vertices[3 * i + std::size_t(c)] = float(mesh.positions[i][c]);
-    auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0,
-                                                                   RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                                                   triangles.size()));
-    for (std::size_t i = 0; i < triangles.size(); ++i)
-      for (int c = 0; c < 3; ++c)
-        indices[3 * i + std::size_t(c)] = triangles[i].v[std::size_t(c)];
-    rtcCommitGeometry(geometry);
-    rtcAttachGeometry(scene, geometry);
-    rtcReleaseGeometry(geometry);
-    const auto embreeStart = Clock::now();
-    const double embreeCpuStart = cpuSeconds();
-    rtcCommitScene(scene);
-    std::printf("Embree BVH: built in %.2f s (one thread, default quality; %.2f s of CPU time)\n",
-                seconds(embreeStart), cpuSeconds() - embreeCpuStart);
+    const std::string everyCore = "threads=" + std::to_string(cores);
+    RTCDevice parallelDevice = rtcNewDevice(everyCore.c_str());
+    auto makeScene = [&](RTCDevice on) {
+      RTCScene made = rtcNewScene(on);
+      RTCGeometry geometry = rtcNewGeometry(on, RTC_GEOMETRY_TYPE_TRIANGLE);
+      auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                                   RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                                                   mesh.positions.size()));
+      for (std::size_t i = 0; i < mesh.positions.size(); ++i)
+        for (int c = 0; c < 3; ++c)
+          vertices[3 * i + std::size_t(c)] = float(mesh.positions[i][c]);
+      auto* indices = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0,
+                                                                     RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                                                     triangles.size()));
+      for (std::size_t i = 0; i < triangles.size(); ++i)
+        for (int c = 0; c < 3; ++c)
+          indices[3 * i + std::size_t(c)] = triangles[i].v[std::size_t(c)];
+      rtcCommitGeometry(geometry);
+      rtcAttachGeometry(made, geometry);
+      rtcReleaseGeometry(geometry);
+      return made;
+    };
+    double theirBuild[2] = {1e30, 1e30}; // one thread, every core
+    double theirCpu = 0;                 // CPU seconds of the one-thread build kept
+    RTCScene scene = nullptr;
+    for (int round = 0; round < o.buildRounds; ++round)
+      for (int k = 0; k < 2; ++k) {
+        RTCScene made = makeScene(k == 0 ? device : parallelDevice);
+        const auto start = Clock::now();
+        const double cpuStart = cpuSeconds();
+        rtcCommitScene(made);
+        const double wall = seconds(start);
+        if (wall < theirBuild[k] && k == 0)
+          theirCpu = cpuSeconds() - cpuStart;
+        theirBuild[k] = std::min(theirBuild[k], wall);
+        if (k == 0 && !scene)
+          scene = made; // the one-thread device's scene answers the rays
+        else
+          rtcReleaseScene(made);
+      }
+    const int theirBest = theirBuild[1] < theirBuild[0] ? 1 : 0;
+    std::printf("Embree BVH: built in %.3f s on 1 thread (%.2f s of CPU time), %.3f s on %d (default quality; best of "
+                "%d)\n",
+                theirBuild[0], theirCpu, theirBuild[1], cores, o.buildRounds);
+    std::printf("build, each on its best thread count: raylife %.3f s (%d thread%s) / Embree %.3f s (%d thread%s) = "
+                "%.2f\n",
+                ourBuild[ourBest], ourBest ? cores : 1, ourBest && cores > 1 ? "s" : "", theirBuild[theirBest],
+                theirBest ? cores : 1, theirBest && cores > 1 ? "s" : "", ourBuild[ourBest] / theirBuild[theirBest]);
     auto embreeHit = [&](const Ray& r) { return embreeIntersect(scene, r, float(r.tmin)); };
     auto theirs = [&](const Ray& r) { sink += embreeHit(r).hit.geomID != RTC_INVALID_GEOMETRY_ID; };
     const double theirCamera = raysPerSecond(cameraRays, o.budget, theirs);
@@ -278,6 +339,7 @@ int main(int argc, char** argv)
                 "mesh's size)\n",
                 agree, total, 100.0 * double(agree) / double(total));
     rtcReleaseScene(scene);
+    rtcReleaseDevice(parallelDevice);
     rtcReleaseDevice(device);
     // Float against double, and Embree's test is not watertight: a few rays in a hundred thousand may differ on an
     // edge. Fewer than 99.9 % in agreement is a bug in one of the two.
