@@ -11,6 +11,10 @@
 #include <thread>
 #include <type_traits>
 
+#ifdef __linux__
+#include <sys/mman.h> // madvise
+#endif
+
 #if RAYLIFE_HAS_AVX2
 #include <immintrin.h> // _mm_movemask_ps (SSE, which every x86-64 has) and _mm256_movemask_ps (AVX)
 #elif defined(__SSE__)
@@ -62,6 +66,21 @@ Bounds3 triangleBounds(const Vec3& p0, const Vec3& p1, const Vec3& p2)
 }
 
 // ---- Building -------------------------------------------------------------------------------------------------
+
+// Asks Linux to back the room `v` has reserved with 2 MB pages where it can (the whole 2 MB pages inside it), before
+// anything is written there. The build writes some 200 MB for a million triangles (its items, nodes and packs, each
+// array written once); each 4 KB page's first write is a page fault, and in a virtual machine those 50,000 faults
+// were a third of the build's time (perf). Advice only: the same bytes either way, nothing elsewhere.
+template <class T> void adviseHugePages([[maybe_unused]] const std::vector<T>& v)
+{
+#ifdef __linux__
+  constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
+  const auto first = reinterpret_cast<std::uintptr_t>(v.data());
+  const std::uintptr_t lo = (first + kHuge - 1) & ~(kHuge - 1), hi = (first + v.capacity() * sizeof(T)) & ~(kHuge - 1);
+  if (hi > lo)
+    madvise(reinterpret_cast<void*>(lo), hi - lo, MADV_HUGEPAGE);
+#endif
+}
 
 // A primitive while the tree is built: its box and its number (spheres first, then triangles). The splits sort by
 // the centre of the box, computed when needed (kept, it cost 24 of 80 bytes a primitive at the build's peak).
@@ -166,6 +185,7 @@ private:
     // (Its room reserved at once, as the root's is: grown by doubling, the copies left behind stayed in the
     // thread's heap after the build, 40 MB of a million triangles'.)
     second.nodes.reserve(2 * (end - mid) - 1);
+    adviseHugePages(second.nodes);
     std::thread worker([&] { second.build(mid, end, level); });
     const int threads = threads_;
     threads_ /= 2;
@@ -764,13 +784,15 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   const std::size_t all = spheres.size() + triangles.size();
   if (all == 0)
     return;
-  std::vector<BuildItem> items(all);
+  std::vector<BuildItem> items;
+  items.reserve(all);
+  adviseHugePages(items);
   for (std::size_t i = 0; i < spheres.size(); ++i)
-    items[i] = BuildItem{sphereBounds(spheres[i]), int(i)};
+    items.push_back(BuildItem{sphereBounds(spheres[i]), int(i)});
   for (std::size_t j = 0; j < triangles.size(); ++j) {
     const Triangle& tri = triangles[j];
-    items[spheres.size() + j] =
-        BuildItem{triangleBounds(vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]), int(spheres.size() + j)};
+    items.push_back(
+        BuildItem{triangleBounds(vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]), int(spheres.size() + j)});
   }
   eightAtOnce_ = options.eightAtOnce && cpuHasAvx2();
 
@@ -816,6 +838,7 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
     // million nodes: the doubling from 2^20 to 2^21 of them was the build's memory peak). (Not shrunk to fit: the
     // copy would be the peak.)
     builder.nodes.reserve(std::max<std::size_t>(2 * count, 2) - 1);
+    adviseHugePages(builder.nodes);
     builder.build(0, count, 1);
     nodes_ = std::move(builder.nodes);
     depth_ = builder.depth;
@@ -864,10 +887,13 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
     }
     packs.back().count |= kLastPack;
   };
-  if (floatCorners)
+  if (floatCorners) {
     floatPacks_.reserve(packCount);
-  else
+    adviseHugePages(floatPacks_);
+  } else {
     packs_.reserve(packCount);
+    adviseHugePages(packs_);
+  }
   for (BvhNode& n : nodes_) {
     if (n.count == 0)
       continue;
@@ -897,6 +923,7 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   // its size (grown by doubling, it held up to twice that, and its last copy was the build's memory peak: 125 MB for
   // a million triangles).
   wideNodes_.reserve(wideNodeCount(0));
+  adviseHugePages(wideNodes_);
   collapse(0);
   if (!options.keepBinaryTree)
     std::vector<BvhNode>().swap(nodes_);
