@@ -284,9 +284,10 @@ private:
       // triangles do not fit in the cache): each bin's count and the box of its primitives.
       bool splittable[3] = {};
       Real lo[3] = {}, extent[3] = {}; // (set below; initialised for GCC 12, which cannot see it)
-      // (The bins are the builder's, emptied here as far as `bins` reaches: made and emptied whole, all
-      // kMaxBins of them, at every node, they were a fifth of this function's time on a mesh of a million
-      // triangles, whose nodes are mostly small.)
+      // (The bins are the builder's, and only their counts are emptied here, as far as `bins` reaches: a bin's box
+      // is written by its first primitive, and an empty bin's never read. Made and emptied whole, all kMaxBins of
+      // them, at every node, they were a fifth of this function's time on a mesh of a million triangles, whose
+      // nodes are mostly small.)
       auto& count = binCount_;
       auto& box = binBox_;
       for (int axis = 0; axis < 3; ++axis) {
@@ -294,18 +295,15 @@ private:
         extent[axis] = centroids.hi[axis] - lo[axis];
         // (Every centroid in one plane across an axis: nothing to split there.)
         splittable[axis] = extent[axis] > 0 && extent[axis] < kInfinity;
-        for (int b = 0; b < bins; ++b) {
-          count[std::size_t(axis)][std::size_t(b)] = 0;
-          box[std::size_t(axis)][std::size_t(b)] = Bounds3{};
-        }
+        std::fill_n(count[std::size_t(axis)].begin(), bins, std::size_t(0));
       }
       for (std::size_t i = begin; i < end; ++i) {
         const Vec3 c = items_[i].centroid();
         for (int axis = 0; axis < 3; ++axis)
           if (splittable[axis]) {
             const auto b = std::size_t(binOf(c[axis], lo[axis], extent[axis]));
-            count[std::size_t(axis)][b] += 1;
-            box[std::size_t(axis)][b] = box[std::size_t(axis)][b].merged(items_[i].bounds);
+            auto& binBox = box[std::size_t(axis)][b];
+            binBox = count[std::size_t(axis)][b]++ == 0 ? items_[i].bounds : binBox.merged(items_[i].bounds);
           }
       }
       for (int axis = 0; axis < 3; ++axis) {
@@ -318,22 +316,29 @@ private:
         std::array<Real, kMaxBins> rightArea;
         std::array<std::size_t, kMaxBins> rightCount;
         Bounds3 right;
+        Real rightAreaSoFar = 0;
         std::size_t nRight = 0;
         for (int b = bins - 1; b > 0; --b) {
-          right = right.merged(binBox[std::size_t(b)]);
-          nRight += binCount[std::size_t(b)];
-          rightArea[std::size_t(b)] = right.surfaceArea();
+          if (binCount[std::size_t(b)] > 0) {
+            right = right.merged(binBox[std::size_t(b)]);
+            nRight += binCount[std::size_t(b)];
+            rightAreaSoFar = right.surfaceArea();
+          }
+          rightArea[std::size_t(b)] = rightAreaSoFar;
           rightCount[std::size_t(b)] = nRight;
         }
-        // Sweep from the left and price each boundary (left: bins 0..b, right: bins b+1..).
+        // Sweep from the left and price each boundary (left: bins 0..b, right: bins b+1..). The boundary after an
+        // empty bin splits the items as the one before it does: priced there already.
         Bounds3 left;
         std::size_t nLeft = 0;
         for (int b = 0; b + 1 < bins; ++b) {
+          if (binCount[std::size_t(b)] == 0)
+            continue;
           left = left.merged(binBox[std::size_t(b)]);
           nLeft += binCount[std::size_t(b)];
           const std::size_t nR = rightCount[std::size_t(b + 1)];
-          if (nLeft == 0 || nR == 0)
-            continue;
+          if (nR == 0)
+            break; // and every boundary further right
           const Real cost = costs.traversal + (left.surfaceArea() * tests(nLeft) +
                                                rightArea[std::size_t(b + 1)] * tests(nR)) / area * costs.intersection;
           if (cost < bestCost) {

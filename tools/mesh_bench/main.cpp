@@ -199,9 +199,15 @@ int main(int argc, char** argv)
                              bvh.wideNodes().size() * sizeof(BvhWideNode)) == 0;
     }
   const int ourBest = ourBuild[1] < ourBuild[0] ? 1 : 0;
+  // A fingerprint of the tree (FNV-1a over the wide nodes' bytes), to tell two builders' trees apart.
+  std::uint64_t fingerprint = 0xcbf29ce484222325ull;
+  const auto* bytes = reinterpret_cast<const unsigned char*>(bvh.wideNodes().data());
+  for (std::size_t i = 0; i < bvh.wideNodes().size() * sizeof(BvhWideNode); ++i)
+    fingerprint = (fingerprint ^ bytes[i]) * 0x100000001b3ull;
   std::printf("raylife BVH build, best of %d: %.3f s on 1 thread, %.3f s on %d; SAH cost %.4f; the same wide nodes "
-              "whatever the threads: %s\n",
-              o.buildRounds, ourBuild[0], ourBuild[1], cores, double(sah), sameTree ? "yes" : "NO");
+              "whatever the threads: %s (fingerprint %016llx)\n",
+              o.buildRounds, ourBuild[0], ourBuild[1], cores, double(sah), sameTree ? "yes" : "NO",
+              static_cast<unsigned long long>(fingerprint));
 
   // ---- The rays ---------------------------------------------------------------------------------------------
   Vec3 lo(kInfinity), hi(-kInfinity);
