@@ -283,7 +283,7 @@ private:
       // Sort the centroids into bins on the three axes at once (one pass over the items, which for a million
       // triangles do not fit in the cache): each bin's count and the box of its primitives.
       bool splittable[3] = {};
-      Real lo[3] = {}, extent[3] = {}; // (set below; initialised for GCC 12, which cannot see it)
+      Vec3 lo(0), extent(1); // (an axis that cannot be split keeps 0 and 1: its bins are filled, never read)
       // (The bins are the builder's, and only their counts are emptied here, as far as `bins` reaches: a bin's box
       // is written by its first primitive, and an empty bin's never read. Made and emptied whole, all kMaxBins of
       // them, at every node, they were a fifth of this function's time on a mesh of a million triangles, whose
@@ -291,20 +291,23 @@ private:
       auto& count = binCount_;
       auto& box = binBox_;
       for (int axis = 0; axis < 3; ++axis) {
-        lo[axis] = centroids.lo[axis];
-        extent[axis] = centroids.hi[axis] - lo[axis];
+        const Real e = centroids.hi[axis] - centroids.lo[axis];
         // (Every centroid in one plane across an axis: nothing to split there.)
-        splittable[axis] = extent[axis] > 0 && extent[axis] < kInfinity;
+        splittable[axis] = e > 0 && e < kInfinity;
+        if (splittable[axis]) {
+          lo[axis] = centroids.lo[axis];
+          extent[axis] = e;
+        }
         std::fill_n(count[std::size_t(axis)].begin(), bins, std::size_t(0));
       }
       for (std::size_t i = begin; i < end; ++i) {
-        const Vec3 c = items_[i].centroid();
-        for (int axis = 0; axis < 3; ++axis)
-          if (splittable[axis]) {
-            const auto b = std::size_t(binOf(c[axis], lo[axis], extent[axis]));
-            auto& binBox = box[std::size_t(axis)][b];
-            binBox = count[std::size_t(axis)][b]++ == 0 ? items_[i].bounds : binBox.merged(items_[i].bounds);
-          }
+        // (The three axes' bins at once: binOf's arithmetic, in lanes.)
+        const Vec3 at = Real(bins) * ((items_[i].centroid() - lo) / extent);
+        for (int axis = 0; axis < 3; ++axis) {
+          const auto b = std::size_t(std::clamp(at[axis], Real(0), Real(bins - 1)));
+          auto& binBox = box[std::size_t(axis)][b];
+          binBox = count[std::size_t(axis)][b]++ == 0 ? items_[i].bounds : binBox.merged(items_[i].bounds);
+        }
       }
       for (int axis = 0; axis < 3; ++axis) {
         if (!splittable[axis])
@@ -363,10 +366,11 @@ private:
   }
   /// [sah]
 
+  // The bin of centroid coordinate c among the bins over [lo, lo + extent] (clamped in Real, then truncated: the
+  // same bin as truncating first, and no overflow converting a far coordinate).
   int binOf(Real c, Real lo, Real extent) const
   {
-    const int b = int(Real(options_.bins) * ((c - lo) / extent));
-    return std::clamp(b, 0, options_.bins - 1);
+    return int(std::clamp(Real(options_.bins) * ((c - lo) / extent), Real(0), Real(options_.bins - 1)));
   }
 
   std::vector<BuildItem>& items_;
