@@ -67,6 +67,21 @@ Bounds3 triangleBounds(const Vec3& p0, const Vec3& p1, const Vec3& p2)
 
 // ---- Building -------------------------------------------------------------------------------------------------
 
+// Calls work(first, last) for consecutive shares of [0, n) on up to `threads` threads, this one among them, and
+// returns when all are done. For work whose every index writes only its own places: then the result is the same
+// whatever the number of threads. (Shares under kMinShare indices are not worth a thread's start.)
+template <class Work> void parallelFor(std::size_t n, int threads, const Work& work)
+{
+  constexpr std::size_t kMinShare = 4096;
+  const std::size_t shares = std::clamp<std::size_t>(n / kMinShare, 1, std::size_t(std::max(threads, 1)));
+  std::vector<std::thread> workers;
+  for (std::size_t k = 1; k < shares; ++k)
+    workers.emplace_back([&work, n, k, shares] { work(n * k / shares, n * (k + 1) / shares); });
+  work(0, n / shares);
+  for (std::thread& worker : workers)
+    worker.join();
+}
+
 // Asks Linux to back the room `v` has reserved with 2 MB pages where it can (the whole 2 MB pages inside it), before
 // anything is written there. The build writes some 200 MB for a million triangles (its items, nodes and packs, each
 // array written once); each 4 KB page's first write is a page fault, and in a virtual machine those 50,000 faults
@@ -793,16 +808,21 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   const std::size_t all = spheres.size() + triangles.size();
   if (all == 0)
     return;
+  const int threads =
+      options.buildThreads > 0 ? options.buildThreads : int(std::max(1u, std::thread::hardware_concurrency()));
   std::vector<BuildItem> items;
   items.reserve(all);
   adviseHugePages(items);
-  for (std::size_t i = 0; i < spheres.size(); ++i)
-    items.push_back(BuildItem{sphereBounds(spheres[i]), int(i)});
-  for (std::size_t j = 0; j < triangles.size(); ++j) {
-    const Triangle& tri = triangles[j];
-    items.push_back(
-        BuildItem{triangleBounds(vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]), int(spheres.size() + j)});
-  }
+  items.resize(all);
+  parallelFor(all, threads, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i)
+      if (i < spheres.size()) {
+        items[i] = BuildItem{sphereBounds(spheres[i]), int(i)};
+      } else {
+        const Triangle& tri = triangles[i - spheres.size()];
+        items[i] = BuildItem{triangleBounds(vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]), int(i)};
+      }
+  });
   eightAtOnce_ = options.eightAtOnce && cpuHasAvx2();
 
   // The huge primitives stay out of the tree, in their own short lists (numbers in increasing order: spheres
@@ -837,8 +857,6 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   // as the nodes are made, before the primitives' own copies are (the build's memory peak for a big mesh).
   std::vector<int> order(count);
   {
-    const int threads =
-        options.buildThreads > 0 ? options.buildThreads : int(std::max(1u, std::thread::hardware_concurrency()));
     // (Four subtrees a thread, so that a lopsided split near the root leaves no core idle for long.)
     Builder builder(items, int(spheres.size()), options, threads > 1 ? 4 * threads : 1);
     // Room for the most nodes a tree of `count` primitives can have (2·count − 1, leaves of one), reserved at once:
@@ -877,32 +895,14 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
       const volatile float rounded = float(vertices[v][axis]);
       floatCorners = floatCorners && Real(rounded) == vertices[v][axis];
     }
-  // A leaf's triangles [first, first + leafSize) of `order` into packs, appended to `packs`.
-  auto addPacks = [&](auto& packs, std::size_t first, std::size_t leafSize) {
-    using Pack = typename std::remove_reference_t<decltype(packs)>::value_type;
-    using T = std::remove_all_extents_t<decltype(Pack::corner)>;
-    for (std::size_t k = first; k < first + leafSize; k += 4) {
-      Pack pack{};
-      pack.count = std::uint32_t(std::min<std::size_t>(4, first + leafSize - k));
-      for (std::size_t lane = 0; lane < pack.count; ++lane) {
-        const int index = order[k + lane];
-        const Triangle& tri = triangles[std::size_t(index) - spheres.size()];
-        for (int corner = 0; corner < 3; ++corner)
-          for (int axis = 0; axis < 3; ++axis)
-            pack.corner[3 * corner + axis][lane] = T(vertices[tri.v[std::size_t(corner)]][axis]);
-        pack.index[lane] = index;
-      }
-      packs.push_back(pack);
-    }
-    packs.back().count |= kLastPack;
+  // The leaves in order: a leaf of spheres gets its spheres appended to spheres_ here, a leaf of triangles the
+  // index of its first pack, its packs filled afterwards on every core (the same bytes whatever the threads: each
+  // leaf writes only its own packs).
+  struct PackedLeaf {
+    std::size_t first, count, pack; // its triangles [first, first + count) of `order`; its first pack
   };
-  if (floatCorners) {
-    floatPacks_.reserve(packCount);
-    adviseHugePages(floatPacks_);
-  } else {
-    packs_.reserve(packCount);
-    adviseHugePages(packs_);
-  }
+  std::vector<PackedLeaf> packed;
+  std::size_t packNext = 0;
   for (BvhNode& n : nodes_) {
     if (n.count == 0)
       continue;
@@ -918,14 +918,39 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
       }
       continue;
     }
-    if (floatCorners) {
-      n.offset = std::uint32_t(floatPacks_.size());
-      addPacks(floatPacks_, first, n.count);
-    } else {
-      n.offset = std::uint32_t(packs_.size());
-      addPacks(packs_, first, n.count);
-    }
+    n.offset = std::uint32_t(packNext);
+    packed.push_back(PackedLeaf{first, n.count, packNext});
+    packNext += (n.count + 3u) / 4u;
   }
+  // A leaf's triangles into its packs, four to a pack, in order.
+  auto fillPacks = [&](auto& packs) {
+    using Pack = typename std::remove_reference_t<decltype(packs)>::value_type;
+    using T = std::remove_all_extents_t<decltype(Pack::corner)>;
+    packs.reserve(packCount);
+    adviseHugePages(packs);
+    packs.resize(packCount); // (zeros: the lanes past a pack's count stay so)
+    parallelFor(packed.size(), threads, [&](std::size_t firstLeaf, std::size_t lastLeaf) {
+      for (std::size_t l = firstLeaf; l < lastLeaf; ++l) {
+        const PackedLeaf& leaf = packed[l];
+        for (std::size_t k = 0; k < leaf.count; ++k) {
+          Pack& pack = packs[leaf.pack + k / 4];
+          const std::size_t lane = k % 4;
+          const int index = order[leaf.first + k];
+          const Triangle& tri = triangles[std::size_t(index) - spheres.size()];
+          for (int corner = 0; corner < 3; ++corner)
+            for (int axis = 0; axis < 3; ++axis)
+              pack.corner[3 * corner + axis][lane] = T(vertices[tri.v[std::size_t(corner)]][axis]);
+          pack.index[lane] = index;
+          pack.count = std::uint32_t(lane + 1);
+        }
+        packs[leaf.pack + (leaf.count - 1) / 4].count |= kLastPack;
+      }
+    });
+  };
+  if (floatCorners)
+    fillPacks(floatPacks_);
+  else if (packCount > 0)
+    fillPacks(packs_);
   std::vector<int>().swap(order);
 
   // The tree the queries walk: up to eight children to a node, counted first, so that the array is allocated once at
