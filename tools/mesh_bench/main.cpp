@@ -4,11 +4,12 @@
 // the same run, and reports the ratio and how often the two agree. Embree is a yardstick here, nothing more: no
 // chapter uses it.
 //
-// usage: mesh_bench MESH.ply|MESH.obj [--size WxH] [--seconds S] [--seed N] [--build-rounds R] [--no-embree]
-//                   [--check]
+// usage: mesh_bench MESH.ply|MESH.obj|SCENE.json [--size WxH] [--seconds S] [--seed N] [--build-rounds R]
+//                   [--no-embree] [--check]
 //   Rays: a camera looking at the mesh from outside its bounding sphere, one ray through each pixel (W×H, default
 //   512x512), and from every camera hit one ray in a cosine-distributed direction about the surface's normal (the
-//   rays a diffuse bounce makes). Each query set is timed for about S seconds (default 1), best of three rounds.
+//   rays a diffuse bounce makes). A scene: its triangles (every mesh, placed as the scene places it; its spheres
+//   left out) seen through its own camera, one ray through each pixel. Each query set is timed for about S seconds (default 1), best of three rounds.
 //   The builds are timed again on one thread and on every core, best of R rounds (default 2), raylife's and
 //   Embree's each on its best thread count, and their ratio printed: the queries run on one thread, a build may not.
 //   --check: exit 1 if raylife and Embree disagree (hit, or distance) on more than 0.1 % of the rays.
@@ -17,6 +18,7 @@
 #include "core/frame.h"
 #include "geometry/bvh.h"
 #include "scene/mesh_file.h"
+#include "scene/scene.h"
 
 #if RAYLIFE_EMBREE
 #include "../embree_ray.h"
@@ -140,23 +142,42 @@ int main(int argc, char** argv)
 {
   Options o;
   if (!parse(argc, argv, o)) {
-    std::fprintf(stderr, "usage: mesh_bench MESH.ply|MESH.obj [--size WxH] [--seconds S] [--seed N] "
+    std::fprintf(stderr, "usage: mesh_bench MESH.ply|MESH.obj|SCENE.json [--size WxH] [--seconds S] [--seed N] "
                          "[--build-rounds R] [--no-embree] [--check]\n");
     return 2;
   }
   const double baseline = peakMegabytes();
   MeshData mesh;
+  std::vector<Triangle> triangles;
+  std::optional<Camera> sceneCamera; // a scene's own camera
   const auto loadStart = Clock::now();
+  const bool isScene = o.mesh.size() >= 5 && o.mesh.compare(o.mesh.size() - 5, 5, ".json") == 0;
   try {
-    mesh = readMeshFile(o.mesh);
+    if (isScene) {
+      Scene scene = loadScene(o.mesh);
+      mesh.positions = scene.vertices;
+      triangles = scene.triangles;
+      sceneCamera = scene.makeCamera(o.width, o.height);
+      if (!scene.spheres.empty())
+        std::printf("mesh_bench: %s: its %zu spheres left out (the triangles are measured)\n", o.mesh.c_str(),
+                    scene.spheres.size());
+    } else {
+      mesh = readMeshFile(o.mesh);
+      triangles.reserve(mesh.triangles.size());
+      for (const auto& t : mesh.triangles)
+        triangles.push_back(Triangle{t, 0, 0});
+    }
   } catch (const MeshError& e) {
     std::fprintf(stderr, "mesh_bench: %s\n", e.what());
     return 1;
+  } catch (const SceneError& e) {
+    std::fprintf(stderr, "mesh_bench: %s\n", e.what());
+    return 1;
   }
-  std::vector<Triangle> triangles;
-  triangles.reserve(mesh.triangles.size());
-  for (const auto& t : mesh.triangles)
-    triangles.push_back(Triangle{t, 0, 0});
+  if (triangles.empty()) {
+    std::fprintf(stderr, "mesh_bench: %s: no triangles to measure\n", o.mesh.c_str());
+    return 1;
+  }
   const double loadSeconds = seconds(loadStart);
   // (The file is parsed in a child process: the peak here is this process's own.)
   std::printf("mesh: %s, %zu triangles, %zu vertices, loaded in %.2f s (peak memory while loading: %.0f MB, of "
@@ -228,9 +249,15 @@ int main(int argc, char** argv)
   auto uniform = [&rng] { return Real(rng.nextUint()) * Real(0x1p-32); };
   for (int y = 0; y < o.height; ++y)
     for (int x = 0; x < o.width; ++x) {
-      const Real px = (2 * (Real(x) + uniform()) / Real(o.width) - 1) * half;
-      const Real py = (1 - 2 * (Real(y) + uniform()) / Real(o.height)) * half;
-      cameraRays.push_back(Ray{eye, glm::normalize(u * px + v * py - w), 0, kInfinity});
+      const Real fx = Real(x) + uniform();
+      const Real fy = Real(y) + uniform();
+      const Real px = (2 * fx / Real(o.width) - 1) * half;
+      const Real py = (1 - 2 * fy / Real(o.height)) * half;
+      if (sceneCamera) {
+        cameraRays.push_back(sceneCamera->ray(Vec2(fx, fy)));
+      } else {
+        cameraRays.push_back(Ray{eye, glm::normalize(u * px + v * py - w), 0, kInfinity});
+      }
     }
   for (const Ray& r : cameraRays)
     if (const std::optional<BvhHit> h = bvh.intersect(r)) {
