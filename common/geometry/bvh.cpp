@@ -557,16 +557,18 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
   constexpr Real kWiden = kBoxMargin<Real> + Real(gamma<float>(8));
   constexpr Real kFloatMax = Real(std::numeric_limits<float>::max());
   constexpr std::size_t kRow = BvhWideNode::kWidth;
-  // Per axis: 1/d, whether d is negative, the origin rounded down and up, and 1/d scaled for entries and exits.
-  float originBelow[3], originAbove[3], invNear[3], invFar[3];
-  bool negative[3];
+  // Per axis, in the lanes of four floats (x, y, z and one unused): the origin rounded down and up, 1/d scaled for
+  // entries and exits, and whether d is negative.
+  Float4 originBelow, originAbove, invNear, invFar;
+  Mask4 negative;
   if constexpr (std::is_same_v<Real, double>) {
     // The three axes at once, in the lanes of four doubles (one AVX register in the eight-lane traversal, two SSE
     // ones elsewhere): the same IEEE operations as the scalar code below (floatBelow, floatAbove, std::clamp), in
     // the same order, so the same floats. Why: without branches. One axis at a time, GCC made the choices below
     // (which face the ray meets first, and the clamps) branches on the signs of the direction, random from ray
     // to ray: valgrind's branch simulator counted 6.1 mispredictions a ray of chapter 6 on the random spheres
-    // with them, 4.7 with this. (Not fewer instructions: some 120 a ray either way.)
+    // with them, 4.7 with this. The conversions to float too, four at once (the same rounding as one at a time):
+    // a lane at a time, they and the choices were some 40 instructions of a query's setup.
     const Double4 one = {1, 1, 1, 1}, most = {kFloatMax, kFloatMax, kFloatMax, kFloatMax}, least = -most;
     const Double4 o = {ray.origin.x, ray.origin.y, ray.origin.z, 0};
     const Double4 d = {ray.direction.x, ray.direction.y, ray.direction.z, 1};
@@ -581,13 +583,11 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
     near = near < least ? least : near; // std::clamp(near, −kFloatMax, kFloatMax)
     near = most < near ? most : near;
     const Double4 far = inv * (1 + kWiden);
-    for (int a = 0; a < 3; ++a) {
-      originBelow[a] = float(below[a]);
-      originAbove[a] = float(above[a]);
-      invNear[a] = float(near[a]);
-      invFar[a] = float(far[a]);
-      negative[a] = sign[a] != 0;
-    }
+    originBelow = __builtin_convertvector(below, Float4);
+    originAbove = __builtin_convertvector(above, Float4);
+    invNear = __builtin_convertvector(near, Float4);
+    invFar = __builtin_convertvector(far, Float4);
+    negative = __builtin_convertvector(sign, Mask4);
   } else {
     for (int a = 0; a < 3; ++a) {
       const Real inv = Real(1) / ray.direction[a];
@@ -595,20 +595,21 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
       originAbove[a] = floatAbove(ray.origin[a]);
       invNear[a] = float(std::clamp(inv * (1 - kWiden), -kFloatMax, kFloatMax));
       invFar[a] = float(inv * (1 + kWiden));
-      negative[a] = std::signbit(inv);
+      negative[a] = std::signbit(inv) ? -1 : 0;
     }
+    originBelow[3] = originAbove[3] = invNear[3] = invFar[3] = 1;
+    negative[3] = 0;
   }
+  // A positive direction meets lo first: its entry (lo − o)/d is early when o is rounded up, its exit (hi − o)/d
+  // late when o is rounded down. A negative direction the other way round. (Chosen by a mask, without a branch.)
+  const Float4 originNear = (Float4)((negative & (Mask4)originBelow) | (~negative & (Mask4)originAbove));
+  const Float4 originFar = (Float4)((negative & (Mask4)originAbove) | (~negative & (Mask4)originBelow));
   for (int a = 0; a < 3; ++a) {
-    r.nearRow[a] = (3 * std::size_t(negative[a]) + std::size_t(a)) * kRow;
-    r.farRow[a] = (3 * std::size_t(!negative[a]) + std::size_t(a)) * kRow;
-    // A positive direction meets lo first: its entry (lo − o)/d is early when o is rounded up, its exit
-    // (hi − o)/d late when o is rounded down. A negative direction the other way round.
-    // (Chosen by a mask, not by `negative ? below : above`, which GCC made a branch.)
-    const std::uint32_t below = std::bit_cast<std::uint32_t>(originBelow[a]);
-    const std::uint32_t above = std::bit_cast<std::uint32_t>(originAbove[a]);
-    const std::uint32_t negativeMask = 0u - std::uint32_t(negative[a]);
-    fill(r.originNear[a], std::bit_cast<float>((below & negativeMask) | (above & ~negativeMask)));
-    fill(r.originFar[a], std::bit_cast<float>((above & negativeMask) | (below & ~negativeMask)));
+    const std::size_t flipped = std::size_t(negative[a] & 1);
+    r.nearRow[a] = (3 * flipped + std::size_t(a)) * kRow;
+    r.farRow[a] = (3 * (1 - flipped) + std::size_t(a)) * kRow;
+    fill(r.originNear[a], originNear[a]);
+    fill(r.originFar[a], originFar[a]);
     // |1/d| made smaller for entries, larger for exits. The entries' stays finite: a float ∞ for a d too small
     // for float would put entries too late (and d = ±0 then gives the largest float, whose entries are early
     // enough). The exits' may overflow to ±∞, which is on the safe side.
