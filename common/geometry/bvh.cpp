@@ -40,6 +40,7 @@ Bounds3 sphereBounds(const Sphere& s)
   return s.moving() ? at(s.center).merged(at(s.center + s.velocity)) : at(s.center);
 }
 
+// A triangle's box, widened as a sphere's is: by kBoxMargin relative to the size of its coordinates.
 // The float at or below x (and at or above, for roundUp): a float box rounded outwards holds the exact box.
 float roundDown(Real x)
 {
@@ -48,15 +49,19 @@ float roundDown(Real x)
     return std::numeric_limits<float>::max();
   if (x < -kFloatMax)
     return -std::numeric_limits<float>::infinity();
-  float f = float(x);
-  if (Real(f) > x)
-    f = std::nextafter(f, -std::numeric_limits<float>::infinity());
-  return f;
+  const float f = float(x);
+  if (!(Real(f) > x))
+    return f;
+  // The float just below f, which is finite and above −FLT_MAX: one step of its bits, away from 0 for a negative f
+  // and towards it for a positive one (std::nextafter's answer, without its call: it was a fortieth of the build).
+  if (f == 0)
+    return -std::numeric_limits<float>::denorm_min();
+  const auto bits = std::bit_cast<std::uint32_t>(f);
+  return std::bit_cast<float>(f > 0 ? bits - 1 : bits + 1);
 }
 
 float roundUp(Real x) { return -roundDown(-x); }
 
-// A triangle's box, widened as a sphere's is: by kBoxMargin relative to the size of its coordinates.
 Bounds3 triangleBounds(const Vec3& p0, const Vec3& p1, const Vec3& p2)
 {
   const Bounds3 exact = Bounds3{p0, p0}.merged(p1).merged(p2);
@@ -64,411 +69,6 @@ Bounds3 triangleBounds(const Vec3& p0, const Vec3& p1, const Vec3& p2)
   const Vec3 margin(kBoxMargin<Real> * size);
   return Bounds3{exact.lo - margin, exact.hi + margin};
 }
-
-// ---- Building -------------------------------------------------------------------------------------------------
-
-// Calls work(first, last) for consecutive shares of [0, n) on up to `threads` threads, this one among them, and
-// returns when all are done. For work whose every index writes only its own places: then the result is the same
-// whatever the number of threads. (Shares under kMinShare indices are not worth a thread's start.)
-template <class Work> void parallelFor(std::size_t n, int threads, const Work& work)
-{
-  constexpr std::size_t kMinShare = 4096;
-  const std::size_t shares = std::clamp<std::size_t>(n / kMinShare, 1, std::size_t(std::max(threads, 1)));
-  std::vector<std::thread> workers;
-  for (std::size_t k = 1; k < shares; ++k)
-    workers.emplace_back([&work, n, k, shares] { work(n * k / shares, n * (k + 1) / shares); });
-  work(0, n / shares);
-  for (std::thread& worker : workers)
-    worker.join();
-}
-
-// Asks Linux to back the room `v` has reserved with 2 MB pages where it can (the whole 2 MB pages inside it), before
-// anything is written there. The build writes some 200 MB for a million triangles (its items, nodes and packs, each
-// array written once); each 4 KB page's first write is a page fault, and in a virtual machine those 50,000 faults
-// were a third of the build's time (perf). Advice only: the same bytes either way, nothing elsewhere.
-// releasePages: the same whole 2 MB pages of a temporary array handed back just before it is freed (its contents are
-// never read again). A freed block that malloc keeps for later (in a thread's arena, or below the top of its heap)
-// stayed resident, in 2 MB pages: 16 MB more held after a million triangles' build, 7 MB with this.
-template <class T> void advisePages([[maybe_unused]] const std::vector<T>& v, [[maybe_unused]] int advice)
-{
-#ifdef __linux__
-  constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
-  const auto first = reinterpret_cast<std::uintptr_t>(v.data());
-  const std::uintptr_t lo = (first + kHuge - 1) & ~(kHuge - 1), hi = (first + v.capacity() * sizeof(T)) & ~(kHuge - 1);
-  if (hi > lo)
-    madvise(reinterpret_cast<void*>(lo), hi - lo, advice);
-#endif
-}
-#ifdef __linux__
-template <class T> void adviseHugePages(const std::vector<T>& v) { advisePages(v, MADV_HUGEPAGE); }
-template <class T> void releasePages(const std::vector<T>& v) { advisePages(v, MADV_DONTNEED); }
-#else
-template <class T> void adviseHugePages(const std::vector<T>&) {}
-template <class T> void releasePages(const std::vector<T>&) {}
-#endif
-
-// A primitive while the tree is built: its box and its number (spheres first, then triangles). The splits sort by
-// the centre of the box, computed when needed (kept, it cost 24 of 80 bytes a primitive at the build's peak).
-struct BuildItem {
-  Bounds3 bounds;
-  int index;
-
-  Vec3 centroid() const { return (bounds.lo + bounds.hi) / Real(2); }
-};
-
-// Where to split a node's items [begin, end): items [begin, mid) go to the first child, [mid, end) to the second.
-struct Split {
-  std::size_t mid;
-};
-
-constexpr float kInfinityF = std::numeric_limits<float>::infinity();
-
-// A built node's surface area, in scene units².
-Real nodeArea(const BvhNode& n) { return Bounds3{Vec3(n.bounds[0]), Vec3(n.bounds[1])}.surfaceArea(); }
-
-int ceilLog2(std::size_t n) { return n <= 1 ? 0 : int(std::bit_width(n - 1)); }
-
-int longestAxis(const Bounds3& b)
-{
-  const Vec3 d = b.hi - b.lo;
-  return d.x >= d.y && d.x >= d.z ? 0 : (d.y >= d.z ? 1 : 2);
-}
-
-class Builder {
-public:
-  // `spheres`: items numbered below it are spheres, the others triangles. `threads`: how many may build at once
-  // (≥ 1). The items are the caller's, rearranged in place.
-  Builder(std::vector<BuildItem>& items, int spheres, const BvhBuildOptions& options, int threads)
-      : items_(items), spheres_(spheres), options_(options), threads_(std::max(threads, 1)),
-        packPriced_(items.size() - std::size_t(spheres) >= std::size_t(options.packPricedFrom))
-  {
-    options_.bins = std::clamp(options_.bins, 2, kMaxBins);
-    options_.maxLeafSize = std::clamp(options_.maxLeafSize, 1, 255);
-    options_.maxTriangleLeafSize = std::clamp(options_.maxTriangleLeafSize, 1, 255);
-  }
-
-  std::vector<BvhNode> nodes;
-  int depth = 0;
-
-  // Builds the subtree over items [begin, end) at `level` (root 1), appending its nodes depth first.
-  void build(std::size_t begin, std::size_t end, int level)
-  {
-    const std::size_t nodeIndex = nodes.size();
-    nodes.push_back(BvhNode{});
-    depth = std::max(depth, level);
-
-    // Bound the node's spheres, and their centroids (the splits choose among centroids).
-    Bounds3 bounds, centroids;
-    bool anySphere = false;
-    for (std::size_t i = begin; i < end; ++i) {
-      bounds = bounds.merged(items_[i].bounds);
-      centroids = centroids.merged(items_[i].centroid());
-      anySphere |= items_[i].index < spheres_;
-    }
-    for (int a = 0; a < 3; ++a) {
-      nodes[nodeIndex].bounds[0][a] = roundDown(bounds.lo[a]);
-      nodes[nodeIndex].bounds[1][a] = roundUp(bounds.hi[a]);
-    }
-
-    std::optional<Split> split = chooseSplit(begin, end, bounds, centroids, level, !anySphere);
-    if (!split)
-      split = byKind(begin, end); // a leaf holds one kind of primitive: split a mixed one, spheres first
-    if (!split) {
-      // A leaf: its primitives are items [begin, end), which is where they stay in the final order.
-      nodes[nodeIndex].offset = std::uint32_t(begin);
-      nodes[nodeIndex].count = std::uint16_t(end - begin);
-      return;
-    }
-    // An interior node: the first child follows it, the second comes after the first's whole subtree.
-    nodes[nodeIndex].count = 0;
-    if (threads_ > 1 && end - begin >= kParallelMin) {
-      nodes[nodeIndex].offset = buildInParallel(begin, split->mid, end, level + 1);
-      return;
-    }
-    build(begin, split->mid, level + 1);
-    const std::size_t second = nodes.size();
-    build(split->mid, end, level + 1);
-    nodes[nodeIndex].offset = std::uint32_t(second);
-  }
-
-private:
-  static constexpr int kMaxBins = 64;
-  // Fewest items whose two halves are worth building on two threads (a thread's start costs some 20 µs, the
-  // subtree of 4096 triangles about a millisecond).
-  static constexpr std::size_t kParallelMin = 4096;
-
-  /// [parallel]
-  // The two children's subtrees over [begin, mid) and [mid, end): the first built here, as the serial build would,
-  // while a builder of its own builds the second on a new thread (the threads shared out between them); then the
-  // second's nodes are appended after the first's, their children's indices shifted by where they land. The halves'
-  // items are disjoint ranges of the one array, and every split depends on its own range only, so the tree is the
-  // serial build's, node for node, whatever the number of threads.
-  // Returns the index of the second child.
-  std::uint32_t buildInParallel(std::size_t begin, std::size_t mid, std::size_t end, int level)
-  {
-    Builder second(items_, spheres_, options_, threads_ - threads_ / 2);
-    // (Its room reserved at once, as the root's is: grown by doubling, the copies left behind stayed in the
-    // thread's heap after the build, 40 MB of a million triangles'.)
-    second.nodes.reserve(2 * (end - mid) - 1);
-    adviseHugePages(second.nodes);
-    std::thread worker([&] { second.build(mid, end, level); });
-    const int threads = threads_;
-    threads_ /= 2;
-    build(begin, mid, level);
-    threads_ = threads;
-    worker.join();
-    const auto base = std::uint32_t(nodes.size());
-    for (BvhNode n : second.nodes) {
-      if (n.count == 0)
-        n.offset += base;
-      nodes.push_back(n);
-    }
-    depth = std::max(depth, second.depth);
-    releasePages(second.nodes);
-    return base;
-  }
-  /// [parallel]
-
-  // Items [begin, end) split into their spheres and their triangles, or nothing when they are all of one kind.
-  std::optional<Split> byKind(std::size_t begin, std::size_t end)
-  {
-    const auto first = items_.begin() + std::ptrdiff_t(begin), last = items_.begin() + std::ptrdiff_t(end);
-    const auto midIt =
-        std::stable_partition(first, last, [this](const BuildItem& item) { return item.index < spheres_; });
-    const std::size_t mid = std::size_t(midIt - items_.begin());
-    if (mid == begin || mid == end)
-      return std::nullopt;
-    return Split{mid};
-  }
-
-  // `triangles`: the items are all triangles (their leaves are priced by packs of four).
-  std::optional<Split> chooseSplit(std::size_t begin, std::size_t end, const Bounds3& bounds,
-                                   const Bounds3& centroids, int level, bool triangles)
-  {
-    const std::size_t n = end - begin;
-    if (n == 1)
-      return std::nullopt;
-    // Near the depth limit, halve by count: that reaches single spheres in ceil(log2 n) more levels.
-    if (level + ceilLog2(n) + 1 >= Bvh::kMaxDepth)
-      return equalCounts(begin, end, longestAxis(centroids));
-    if (options_.split == BvhSplit::Midpoint)
-      return midpoint(begin, end, centroids);
-    return sah(begin, end, bounds, centroids, triangles);
-  }
-
-  // Halves the items by count along `axis` (centroid order, then index, so the result is fully determined).
-  Split equalCounts(std::size_t begin, std::size_t end, int axis)
-  {
-    const std::size_t mid = begin + (end - begin) / 2;
-    std::nth_element(items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(mid),
-                     items_.begin() + std::ptrdiff_t(end), [axis](const BuildItem& a, const BuildItem& b) {
-                       const Real ca = a.centroid()[axis], cb = b.centroid()[axis];
-                       return ca < cb || (ca == cb && a.index < b.index);
-                     });
-    return Split{mid};
-  }
-
-  // The bad split, for comparison: the middle of the centroids' longest axis, whatever it costs.
-  std::optional<Split> midpoint(std::size_t begin, std::size_t end, const Bounds3& centroids)
-  {
-    if (end - begin <= std::size_t(options_.maxLeafSize))
-      return std::nullopt;
-    const int axis = longestAxis(centroids);
-    const Real middle = (centroids.lo[axis] + centroids.hi[axis]) / 2;
-    const auto midIt = std::partition(items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(end),
-                                      [&](const BuildItem& item) { return item.centroid()[axis] < middle; });
-    const std::size_t mid = std::size_t(midIt - items_.begin());
-    if (mid == begin || mid == end) // every centroid on one side (all equal): split by count instead
-      return equalCounts(begin, end, axis);
-    return Split{mid};
-  }
-
-  /// [sah]
-  // The surface area heuristic. A ray that hits a node's box hits a child's box with probability about
-  // A_child / A_node (for rays from all directions), so splitting into L and R costs, per ray,
-  //   C = C_trav + (A_L / A)·N_L·C_isect + (A_R / A)·N_R·C_isect,
-  // against N·C_isect for keeping the node a leaf. The centroids are sorted into a few bins per axis, and every
-  // boundary between bins is priced; the cheapest wins.
-  // Triangles are tested four at a time, a pack at a time: in a big tree (BvhBuildOptions::packPricedFrom), N counts
-  // a node of triangles' packs of four, ⌈N/4⌉, so that the SAH makes leaves of full packs where it can.
-  std::optional<Split> sah(std::size_t begin, std::size_t end, const Bounds3& bounds, const Bounds3& centroids,
-                           bool triangles)
-  {
-    const std::size_t n = end - begin;
-    const BvhCosts costs;
-    const int bins = options_.bins;
-    const Real area = bounds.surfaceArea();
-    const bool byPacks = triangles && packPriced_;
-    auto tests = [byPacks](std::size_t count) { return Real(byPacks ? (count + 3) / 4 : count); };
-    const Real leafCost = tests(n) * costs.intersection;
-    const std::size_t maxLeaf = std::size_t(triangles ? options_.maxTriangleLeafSize : options_.maxLeafSize);
-
-    Real bestCost = kInfinity;
-    int bestAxis = -1, bestBin = -1;
-    if (area > 0 && area < kInfinity) {
-      // Sort the centroids into bins on the three axes at once (one pass over the items, which for a million
-      // triangles do not fit in the cache): each bin's count and the box of its primitives.
-      bool splittable[3] = {};
-      Vec3 lo(0), scale(1); // (an axis that cannot be split keeps 0 and 1: its bins are filled, never read)
-      // (The bins are the builder's, and only their counts are emptied here, as far as `bins` reaches: a bin's box
-      // is written by its first primitive, and an empty bin's never read. Made and emptied whole, all kMaxBins of
-      // them, at every node, they were a fifth of this function's time on a mesh of a million triangles, whose
-      // nodes are mostly small.)
-      auto& count = binCount_;
-      auto& box = binBox_;
-      for (int axis = 0; axis < 3; ++axis) {
-        const Real e = centroids.hi[axis] - centroids.lo[axis];
-        // (Every centroid in one plane across an axis: nothing to split there. And a spread so small that bins / e
-        // overflows is as good as none.)
-        splittable[axis] = e > 0 && std::isfinite(Real(bins) / e);
-        if (splittable[axis]) {
-          lo[axis] = centroids.lo[axis];
-          scale[axis] = Real(bins) / e;
-        }
-        std::fill_n(count[std::size_t(axis)].begin(), bins, std::size_t(0));
-      }
-      for (std::size_t i = begin; i < end; ++i) {
-        // (The three axes' bins at once: binOf's arithmetic, in lanes; a multiplication where a division per axis
-        // per primitive per level was a fifth of the binning's instructions.)
-        const Vec3 at = (items_[i].centroid() - lo) * scale;
-        for (int axis = 0; axis < 3; ++axis) {
-          const auto b = std::size_t(std::clamp(at[axis], Real(0), Real(bins - 1)));
-          auto& binBox = box[std::size_t(axis)][b];
-          binBox = count[std::size_t(axis)][b]++ == 0 ? items_[i].bounds : binBox.merged(items_[i].bounds);
-        }
-      }
-      for (int axis = 0; axis < 3; ++axis) {
-        if (!splittable[axis])
-          continue;
-        const auto& binCount = count[std::size_t(axis)];
-        const auto& binBox = box[std::size_t(axis)];
-        // Sweep from the right to know, for each boundary, the area and count of everything to its right
-        // (bins 1 to bins − 1 are written before they are read).
-        std::array<Real, kMaxBins> rightArea;
-        std::array<std::size_t, kMaxBins> rightCount;
-        Bounds3 right;
-        Real rightAreaSoFar = 0;
-        std::size_t nRight = 0;
-        for (int b = bins - 1; b > 0; --b) {
-          if (binCount[std::size_t(b)] > 0) {
-            right = right.merged(binBox[std::size_t(b)]);
-            nRight += binCount[std::size_t(b)];
-            rightAreaSoFar = right.surfaceArea();
-          }
-          rightArea[std::size_t(b)] = rightAreaSoFar;
-          rightCount[std::size_t(b)] = nRight;
-        }
-        // Sweep from the left and price each boundary (left: bins 0..b, right: bins b+1..). The boundary after an
-        // empty bin splits the items as the one before it does: priced there already.
-        Bounds3 left;
-        std::size_t nLeft = 0;
-        for (int b = 0; b + 1 < bins; ++b) {
-          if (binCount[std::size_t(b)] == 0)
-            continue;
-          left = left.merged(binBox[std::size_t(b)]);
-          nLeft += binCount[std::size_t(b)];
-          const std::size_t nR = rightCount[std::size_t(b + 1)];
-          if (nR == 0)
-            break; // and every boundary further right
-          const Real cost = costs.traversal + (left.surfaceArea() * tests(nLeft) +
-                                               rightArea[std::size_t(b + 1)] * tests(nR)) / area * costs.intersection;
-          if (cost < bestCost) {
-            bestCost = cost;
-            bestAxis = axis;
-            bestBin = b;
-          }
-        }
-      }
-    }
-
-    // Keep a leaf when no split pays for itself (and the leaf is small enough).
-    if (n <= maxLeaf && !(bestCost < leafCost))
-      return std::nullopt;
-    if (bestAxis < 0) // no boundary separates any centroids: split by count
-      return equalCounts(begin, end, longestAxis(centroids));
-    const Real lo = centroids.lo[bestAxis], scale = Real(bins) / (centroids.hi[bestAxis] - lo);
-    const auto midIt = std::partition(
-        items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(end),
-        [&](const BuildItem& item) { return binOf(item.centroid()[bestAxis], lo, scale) <= bestBin; });
-    return Split{std::size_t(midIt - items_.begin())};
-  }
-  /// [sah]
-
-  // The bin of centroid coordinate c among the bins over [lo, lo + bins / scale] (clamped in Real, then truncated:
-  // the same bin as truncating first, and no overflow converting a far coordinate).
-  int binOf(Real c, Real lo, Real scale) const
-  {
-    return int(std::clamp((c - lo) * scale, Real(0), Real(options_.bins - 1)));
-  }
-
-  std::vector<BuildItem>& items_;
-  int spheres_;
-  BvhBuildOptions options_;
-  int threads_;
-  bool packPriced_; // the tree has BvhBuildOptions::packPricedFrom triangles or more
-  // sah's bins, per axis: how many centroids fall in each, and the box of their primitives.
-  std::array<std::array<std::size_t, kMaxBins>, 3> binCount_;
-  std::array<std::array<Bounds3, kMaxBins>, 3> binBox_;
-};
-
-// ---- Huge primitives -----------------------------------------------------------------------------------------
-
-/// [outside]
-// The primitives to keep out of the tree (Bvh::outsidePrimitives), by number, increasing. Rank the kMaxOutside
-// biggest boxes by surface area (the lower number first on a tie); the box of everything ranked after rank j is
-// rest(j). Take the deepest rank j whose box has at least kHugeAreaRatio times rest(j)'s area and overlaps it:
-// ranks 1..j go out (each is at least as big as rank j, and the tree keeps only rest(j)). At most a quarter of the
-// primitives go out (each costs every ray a test, and a tree over a handful costs little anyway).
-std::vector<int> chooseOutside(const std::vector<BuildItem>& items)
-{
-  const std::size_t n = items.size();
-  const std::size_t k = std::min<std::size_t>(std::size_t(kMaxOutside), n / 4);
-  if (k == 0)
-    return {};
-  // The k biggest, biggest first, in one pass (a million triangles: no sort, no copy).
-  struct Ranked {
-    Real area;
-    std::size_t item;
-  };
-  std::vector<Ranked> top;
-  top.reserve(k + 1);
-  for (std::size_t i = 0; i < n; ++i) {
-    const Real area = items[i].bounds.surfaceArea();
-    if (top.size() == k && !(area > top.back().area))
-      continue;
-    std::size_t at = top.size();
-    while (at > 0 && area > top[at - 1].area)
-      --at;
-    top.insert(top.begin() + std::ptrdiff_t(at), Ranked{area, i});
-    if (top.size() > k)
-      top.pop_back();
-  }
-  // rest(k): everything but the ranked; then rest(j − 1) = rest(j) and rank j.
-  std::vector<char> ranked(n, 0);
-  for (const Ranked& r : top)
-    ranked[r.item] = 1;
-  Bounds3 rest;
-  for (std::size_t i = 0; i < n; ++i)
-    if (!ranked[i])
-      rest = rest.merged(items[i].bounds);
-  std::size_t out = 0;
-  for (std::size_t j = top.size(); j >= 1; --j) {
-    const Bounds3& box = items[top[j - 1].item].bounds;
-    const bool empty = box.lo.x > rest.hi.x || box.lo.y > rest.hi.y || box.lo.z > rest.hi.z || rest.lo.x > box.hi.x ||
-                       rest.lo.y > box.hi.y || rest.lo.z > box.hi.z; // the two boxes do not overlap
-    if (top[j - 1].area >= kHugeAreaRatio * rest.surfaceArea() && !empty) {
-      out = j;
-      break;
-    }
-    rest = rest.merged(items[top[j - 1].item].bounds);
-  }
-  std::vector<int> numbers;
-  for (std::size_t j = 0; j < out; ++j)
-    numbers.push_back(items[top[j].item].index);
-  std::sort(numbers.begin(), numbers.end());
-  return numbers;
-}
-/// [outside]
 
 // ---- Lanes: four or eight boxes at a time ---------------------------------------------------------------------
 
@@ -496,6 +96,673 @@ unsigned bitMask(const Mask4& m)
 #if RAYLIFE_HAS_AVX2
 RAYLIFE_AVX2 unsigned bitMask(const Mask8& m) { return unsigned(_mm256_movemask_ps(__m256(m))); }
 #endif
+
+// ---- Building -------------------------------------------------------------------------------------------------
+
+// Calls work(first, last) for consecutive shares of [0, n) on up to `threads` threads, this one among them, and
+// returns when all are done. For work whose every index writes only its own places: then the result is the same
+// whatever the number of threads. (Shares under kMinShare indices are not worth a thread's start.)
+constexpr std::size_t kMinShare = 4096;
+std::size_t shareCount(std::size_t n, int threads)
+{
+  return std::clamp<std::size_t>(n / kMinShare, 1, std::size_t(std::max(threads, 1)));
+}
+// The same, calling work(share, first, last) for share k of shareCount(n, threads).
+template <class Work> void parallelShares(std::size_t n, int threads, const Work& work)
+{
+  const std::size_t shares = shareCount(n, threads);
+  std::vector<std::thread> workers;
+  for (std::size_t k = 1; k < shares; ++k)
+    workers.emplace_back([&work, n, k, shares] { work(k, n * k / shares, n * (k + 1) / shares); });
+  work(std::size_t(0), std::size_t(0), n / shares);
+  for (std::thread& worker : workers)
+    worker.join();
+}
+template <class Work> void parallelFor(std::size_t n, int threads, const Work& work)
+{
+  parallelShares(n, threads, [&work](std::size_t, std::size_t first, std::size_t last) { work(first, last); });
+}
+
+// Asks Linux to back the room `v` has reserved with 2 MB pages where it can (the whole 2 MB pages inside it), before
+// anything is written there. The build writes some 200 MB for a million triangles (its items, nodes and packs, each
+// array written once); each 4 KB page's first write is a page fault, and in a virtual machine those 50,000 faults
+// were a third of the build's time (perf). Advice only: the same bytes either way, nothing elsewhere.
+// releasePages: the same whole 2 MB pages of a temporary array handed back just before it is freed (its contents are
+// never read again). A freed block that malloc keeps for later (in a thread's arena, or below the top of its heap)
+// stayed resident, in 2 MB pages: 16 MB more held after a million triangles' build, 7 MB with this.
+template <class T> void advisePages([[maybe_unused]] const std::vector<T>& v, [[maybe_unused]] int advice)
+{
+#ifdef __linux__
+  constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
+  const auto first = reinterpret_cast<std::uintptr_t>(v.data());
+  const std::uintptr_t lo = (first + kHuge - 1) & ~(kHuge - 1), hi = (first + v.capacity() * sizeof(T)) & ~(kHuge - 1);
+  if (hi > lo)
+    madvise(reinterpret_cast<void*>(lo), hi - lo, advice);
+#endif
+}
+#ifdef __linux__
+template <class T> void adviseHugePages(const std::vector<T>& v) { advisePages(v, MADV_HUGEPAGE); }
+template <class T> void releasePages(const std::vector<T>& v) { advisePages(v, MADV_DONTNEED); }
+#else
+template <class T> void adviseHugePages(const std::vector<T>&) {}
+template <class T> void releasePages(const std::vector<T>&) {}
+#endif
+
+// A primitive while the tree is built: its box in floats, rounded outwards from the scene's scalar (roundDown,
+// roundUp), and its number (spheres first, then triangles). Why float: the nodes' boxes are float anyway, and
+// rounding outwards keeps order, so the float box of a union of boxes is the union of their float boxes: the nodes
+// come out the same as from boxes in the scene's scalar. And the items are 32 bytes where they were 56 in double,
+// for the passes over a million of them that do not fit in the cache, and binned four lanes at a time.
+struct BuildItem {
+  float lo[3];
+  std::int32_t index;
+  float hi[3];
+  std::int32_t unused = 0;
+};
+static_assert(sizeof(BuildItem) == 32, "two build items to a cache line");
+
+BuildItem buildItem(const Bounds3& b, int index)
+{
+  return BuildItem{{roundDown(b.lo.x), roundDown(b.lo.y), roundDown(b.lo.z)},
+                   index,
+                   {roundUp(b.hi.x), roundUp(b.hi.y), roundUp(b.hi.z)}};
+}
+
+constexpr float kLargestFloat = std::numeric_limits<float>::max();
+constexpr float kInfinityF = std::numeric_limits<float>::infinity();
+constexpr Float4 kEmptyLo = {kInfinityF, kInfinityF, kInfinityF, 0}, kEmptyHi = -kEmptyLo;
+
+// An item's corners as lanes x, y, z (lane 3 is 0: the index's bits masked off, as a float they would be a
+// subnormal, which some CPUs take a hundred cycles to multiply).
+Float4 lower(const BuildItem& item)
+{
+  Float4 v;
+  std::memcpy(&v, item.lo, sizeof v);
+  return (Float4)((Mask4)v & Mask4{-1, -1, -1, 0});
+}
+Float4 upper(const BuildItem& item)
+{
+  Float4 v;
+  std::memcpy(&v, item.hi, sizeof v); // (`unused`, 0, is lane 3)
+  return v;
+}
+// Lane by lane, a < b ? a : b, and a > b ? a : b (SSE's minps and maxps, which GCC does not always find in them).
+Float4 minLanes(Float4 a, Float4 b)
+{
+#if defined(__SSE__)
+  return Float4(_mm_min_ps(__m128(a), __m128(b)));
+#else
+  return a < b ? a : b;
+#endif
+}
+Float4 maxLanes(Float4 a, Float4 b)
+{
+#if defined(__SSE__)
+  return Float4(_mm_max_ps(__m128(a), __m128(b)));
+#else
+  return a > b ? a : b;
+#endif
+}
+
+// The centre of an item's box, where the splits sort it. A side beyond the largest float (a scene may place things
+// up to 10^308, whose float box is infinite there) counts as the largest float, so that every centre is finite and
+// the bins' arithmetic sees no NaN.
+Float4 center(Float4 lo, Float4 hi)
+{
+  const Float4 most = {kLargestFloat, kLargestFloat, kLargestFloat, 0};
+  return maxLanes(-most, lo) * 0.5f + minLanes(most, hi) * 0.5f;
+}
+
+// A box of float lanes in the scene's scalar (exactly: every float is one).
+Bounds3 toBounds(Float4 lo, Float4 hi) { return Bounds3{Vec3(lo[0], lo[1], lo[2]), Vec3(hi[0], hi[1], hi[2])}; }
+
+// What a node's items add up to: the box of their boxes, the box of their centres, and which kinds they are.
+struct ItemsInfo {
+  Float4 lo = kEmptyLo, hi = kEmptyHi;
+  Float4 centerLo = kEmptyLo, centerHi = kEmptyHi;
+  bool anySphere = false, anyTriangle = false;
+
+  void add(const BuildItem& item, int spheres)
+  {
+    const Float4 l = lower(item), h = upper(item);
+    add(l, h, center(l, h), item.index < spheres);
+  }
+  // An item's box l–h, its centre c, and whether it is a sphere.
+  void add(Float4 l, Float4 h, Float4 c, bool sphere)
+  {
+    lo = minLanes(lo, l);
+    hi = maxLanes(hi, h);
+    centerLo = minLanes(centerLo, c);
+    centerHi = maxLanes(centerHi, c);
+    anySphere |= sphere;
+    anyTriangle |= !sphere;
+  }
+  void add(const ItemsInfo& o)
+  {
+    lo = minLanes(lo, o.lo);
+    hi = maxLanes(hi, o.hi);
+    centerLo = minLanes(centerLo, o.centerLo);
+    centerHi = maxLanes(centerHi, o.centerHi);
+    anySphere |= o.anySphere;
+    anyTriangle |= o.anyTriangle;
+  }
+};
+
+// Items [begin, end) added up, in one pass (min and max: the same whatever the order, so on any number of threads).
+ItemsInfo summarize(const std::vector<BuildItem>& items, std::size_t begin, std::size_t end, int spheres)
+{
+  ItemsInfo info;
+  for (std::size_t i = begin; i < end; ++i)
+    info.add(items[i], spheres);
+  return info;
+}
+// All the items, on up to `threads` threads (each adds up its share; then the shares are added up).
+ItemsInfo summarize(const std::vector<BuildItem>& items, int spheres, int threads)
+{
+  std::vector<ItemsInfo> shares(shareCount(items.size(), threads));
+  parallelShares(items.size(), threads, [&](std::size_t k, std::size_t first, std::size_t last) {
+    shares[k] = summarize(items, first, last, spheres);
+  });
+  for (std::size_t k = 1; k < shares.size(); ++k)
+    shares[0].add(shares[k]);
+  return shares[0];
+}
+
+// Where to split a node's items [begin, end): items [begin, mid) go to the first child, [mid, end) to the second;
+// and what each side's items add up to.
+struct Split {
+  std::size_t mid;
+  ItemsInfo first, second;
+};
+
+// A built node's surface area, in scene units².
+Real nodeArea(const BvhNode& n) { return Bounds3{Vec3(n.bounds[0]), Vec3(n.bounds[1])}.surfaceArea(); }
+
+int ceilLog2(std::size_t n) { return n <= 1 ? 0 : int(std::bit_width(n - 1)); }
+
+int longestAxis(const Bounds3& b)
+{
+  const Vec3 d = b.hi - b.lo;
+  return d.x >= d.y && d.x >= d.z ? 0 : (d.y >= d.z ? 1 : 2);
+}
+
+constexpr int kMaxBins = 64;
+
+// The three axes' bins of a centre, over bins from `origin` on, `scale` bins per scene unit, `bins` of them (lane
+// 3: 0). (Clamped in float, then truncated: no overflow converting a far centre. A centre is finite and the scale
+// positive or 0, so no lane is NaN, but a difference beyond the largest float is +∞, which clamps to the last.)
+Mask4 binsOf(Float4 center, Float4 origin, Float4 scale, int bins)
+{
+  const float last = float(bins - 1);
+  const Float4 at = minLanes(maxLanes((center - origin) * scale, Float4{}), Float4{last, last, last, last});
+  return __builtin_convertvector(at, Mask4);
+}
+
+// The SAH's bins over a node's items: on each axis, how many centres fall in each bin (one axis to a lane), and the
+// box of their primitives (an empty box for none).
+struct Bins {
+  std::array<Mask4, kMaxBins> count;                     // [bin][axis]
+  std::array<std::array<Float4, 3>, kMaxBins> lo, hi;    // [bin][axis]
+
+  // Bins 0 to bins − 1 emptied. (Only those: emptied whole, all kMaxBins of them at every node, they were a fifth
+  // of the SAH's time on a mesh of a million triangles, whose nodes are mostly small.)
+  void clear(int bins)
+  {
+    for (std::size_t b = 0; b < std::size_t(bins); ++b) {
+      count[b] = Mask4{};
+      lo[b] = {kEmptyLo, kEmptyLo, kEmptyLo};
+      hi[b] = {kEmptyHi, kEmptyHi, kEmptyHi};
+    }
+  }
+  // Items [begin, end) sorted in, on the three axes at once (binsOf).
+  void add(const std::vector<BuildItem>& items, std::size_t begin, std::size_t end, Float4 origin, Float4 scale,
+           int bins)
+  {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Float4 l = lower(items[i]), h = upper(items[i]);
+      const Mask4 b = binsOf(center(l, h), origin, scale, bins);
+      for (std::size_t axis = 0; axis < 3; ++axis) {
+        const auto at = std::size_t(b[axis]);
+        ++count[at][axis];
+        lo[at][axis] = minLanes(lo[at][axis], l);
+        hi[at][axis] = maxLanes(hi[at][axis], h);
+      }
+    }
+  }
+  // Another's bins 0 to bins − 1 added in (sums and unions: the same whatever the order).
+  void add(const Bins& o, int bins)
+  {
+    for (std::size_t b = 0; b < std::size_t(bins); ++b) {
+      count[b] += o.count[b];
+      for (std::size_t axis = 0; axis < 3; ++axis) {
+        lo[b][axis] = minLanes(lo[b][axis], o.lo[b][axis]);
+        hi[b][axis] = maxLanes(hi[b][axis], o.hi[b][axis]);
+      }
+    }
+  }
+};
+
+class Builder {
+public:
+  // Subtrees a thread: the root's builder is given this many for each thread, so that a lopsided split near the
+  // root leaves no core idle for long.
+  static constexpr int kSubtreesPerThread = 4;
+
+  // `spheres`: items numbered below it are spheres, the others triangles. `threads`: how many may build at once
+  // (≥ 1). The items are the caller's, rearranged in place.
+  Builder(std::vector<BuildItem>& items, int spheres, const BvhBuildOptions& options, int threads)
+      : items_(items), spheres_(spheres), options_(options), threads_(std::max(threads, 1)),
+        packPriced_(items.size() - std::size_t(spheres) >= std::size_t(options.packPricedFrom))
+  {
+    options_.bins = std::clamp(options_.bins, 2, kMaxBins);
+    options_.maxLeafSize = std::clamp(options_.maxLeafSize, 1, 255);
+    options_.maxTriangleLeafSize = std::clamp(options_.maxTriangleLeafSize, 1, 255);
+  }
+
+  std::vector<BvhNode> nodes;
+  int depth = 0;
+
+  // Builds the subtree over items [begin, end) at `level` (root 1), appending its nodes depth first. `info`: what
+  // the items add up to (summarize), which the split that made them works out on its way.
+  void build(std::size_t begin, std::size_t end, int level, const ItemsInfo& info)
+  {
+    const std::size_t nodeIndex = nodes.size();
+    nodes.push_back(BvhNode{});
+    depth = std::max(depth, level);
+    for (int a = 0; a < 3; ++a) {
+      nodes[nodeIndex].bounds[0][a] = info.lo[a];
+      nodes[nodeIndex].bounds[1][a] = info.hi[a];
+    }
+
+    std::optional<Split> split = chooseSplit(begin, end, info, level);
+    if (!split && info.anySphere && info.anyTriangle)
+      split = byKind(begin, end); // a leaf holds one kind of primitive: split a mixed one, spheres first
+    if (!split) {
+      // A leaf: its primitives are items [begin, end), which is where they stay in the final order.
+      nodes[nodeIndex].offset = std::uint32_t(begin);
+      nodes[nodeIndex].count = std::uint16_t(end - begin);
+      return;
+    }
+    // An interior node: the first child follows it, the second comes after the first's whole subtree.
+    nodes[nodeIndex].count = 0;
+    if (threads_ > 1 && end - begin >= kParallelMin) {
+      nodes[nodeIndex].offset = buildInParallel(begin, *split, end, level + 1);
+      return;
+    }
+    build(begin, split->mid, level + 1, split->first);
+    const std::size_t second = nodes.size();
+    build(split->mid, end, level + 1, split->second);
+    nodes[nodeIndex].offset = std::uint32_t(second);
+  }
+
+private:
+  // Fewest items whose two halves are worth building on two threads (a thread's start costs some 20 µs, the
+  // subtree of 4096 triangles about a millisecond).
+  static constexpr std::size_t kParallelMin = 4096;
+  // Fewest items a node bins on more than one core (a share is then a millisecond or more of work).
+  static constexpr std::size_t kParallelBinsMin = std::size_t(1) << 16;
+
+  /// [parallel]
+  // The two children's subtrees over [begin, mid) and [mid, end): the first built here, as the serial build would,
+  // while a builder of its own builds the second on a new thread (the threads shared out between them); then the
+  // second's nodes are appended after the first's, their children's indices shifted by where they land. The halves'
+  // items are disjoint ranges of the one array, and every split depends on its own range only, so the tree is the
+  // serial build's, node for node, whatever the number of threads.
+  // Returns the index of the second child.
+  std::uint32_t buildInParallel(std::size_t begin, const Split& split, std::size_t end, int level)
+  {
+    Builder second(items_, spheres_, options_, threads_ - threads_ / 2);
+    // (Its room reserved at once, as the root's is: grown by doubling, the copies left behind stayed in the
+    // thread's heap after the build, 40 MB of a million triangles'.)
+    second.nodes.reserve(2 * (end - split.mid) - 1);
+    adviseHugePages(second.nodes);
+    std::thread worker([&] { second.build(split.mid, end, level, split.second); });
+    const int threads = threads_;
+    threads_ /= 2;
+    build(begin, split.mid, level, split.first);
+    threads_ = threads;
+    worker.join();
+    const auto base = std::uint32_t(nodes.size());
+    for (BvhNode n : second.nodes) {
+      if (n.count == 0)
+        n.offset += base;
+      nodes.push_back(n);
+    }
+    depth = std::max(depth, second.depth);
+    releasePages(second.nodes);
+    return base;
+  }
+  /// [parallel]
+
+  // A split at `mid` of items that some rearrangement has just put there, each side added up in a pass.
+  Split summarized(std::size_t begin, std::size_t mid, std::size_t end) const
+  {
+    return Split{mid, summarize(items_, begin, mid, spheres_), summarize(items_, mid, end, spheres_)};
+  }
+
+  // Items [begin, end) split into their spheres and their triangles, or nothing when they are all of one kind.
+  std::optional<Split> byKind(std::size_t begin, std::size_t end)
+  {
+    const auto first = items_.begin() + std::ptrdiff_t(begin), last = items_.begin() + std::ptrdiff_t(end);
+    const auto midIt =
+        std::stable_partition(first, last, [this](const BuildItem& item) { return item.index < spheres_; });
+    const std::size_t mid = std::size_t(midIt - items_.begin());
+    if (mid == begin || mid == end)
+      return std::nullopt;
+    return summarized(begin, mid, end);
+  }
+
+  std::optional<Split> chooseSplit(std::size_t begin, std::size_t end, const ItemsInfo& info, int level)
+  {
+    const std::size_t n = end - begin;
+    if (n == 1)
+      return std::nullopt;
+    const Bounds3 centers = toBounds(info.centerLo, info.centerHi);
+    // Near the depth limit, halve by count: that reaches single spheres in ceil(log2 n) more levels.
+    if (level + ceilLog2(n) + 1 >= Bvh::kMaxDepth)
+      return equalCounts(begin, end, longestAxis(centers));
+    if (options_.split == BvhSplit::Midpoint)
+      return midpoint(begin, end, centers);
+    return sah(begin, end, info);
+  }
+
+  // Halves the items by count along `axis` (centre order, then index, so the result is fully determined).
+  Split equalCounts(std::size_t begin, std::size_t end, int axis)
+  {
+    const std::size_t mid = begin + (end - begin) / 2;
+    std::nth_element(items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(mid),
+                     items_.begin() + std::ptrdiff_t(end), [axis](const BuildItem& a, const BuildItem& b) {
+                       const float ca = center(lower(a), upper(a))[axis], cb = center(lower(b), upper(b))[axis];
+                       return ca < cb || (ca == cb && a.index < b.index);
+                     });
+    return summarized(begin, mid, end);
+  }
+
+  // The bad split, for comparison: the middle of the centres' longest axis, whatever it costs.
+  std::optional<Split> midpoint(std::size_t begin, std::size_t end, const Bounds3& centers)
+  {
+    if (end - begin <= std::size_t(options_.maxLeafSize))
+      return std::nullopt;
+    const int axis = longestAxis(centers);
+    const Real middle = (centers.lo[axis] + centers.hi[axis]) / 2;
+    const auto midIt =
+        std::partition(items_.begin() + std::ptrdiff_t(begin), items_.begin() + std::ptrdiff_t(end),
+                       [&](const BuildItem& item) { return Real(center(lower(item), upper(item))[axis]) < middle; });
+    const std::size_t mid = std::size_t(midIt - items_.begin());
+    if (mid == begin || mid == end) // every centre on one side (all equal): split by count instead
+      return equalCounts(begin, end, axis);
+    return summarized(begin, mid, end);
+  }
+
+  // Half the surface areas of three boxes of float lanes (lo[a], hi[a]: one box each), into lanes 0–2 of `out`
+  // (lane 3: 0), in scene units²; 0 for an empty box. In double, for boxes whose areas may be beyond float's range;
+  // in float, for the rest (the three differences turned on their side, so that one product serves all three).
+  // (Written into `out`, not returned: a vector of four doubles is returned in memory without AVX.)
+  static void halfAreas(const Float4 (&lo)[3], const Float4 (&hi)[3], Double4& out)
+  {
+    out = Double4{};
+    for (int a = 0; a < 3; ++a) {
+      Double4 d = __builtin_convertvector(hi[a], Double4) - __builtin_convertvector(lo[a], Double4);
+      d = d > 0 ? d : Double4{}; // (an empty box: −∞ − ∞, taken as 0)
+      out[a] = d[0] * (d[1] + d[2]) + d[1] * d[2];
+    }
+  }
+  static void halfAreas(const Float4 (&lo)[3], const Float4 (&hi)[3], Float4& out)
+  {
+    Float4 d[3];
+    for (int a = 0; a < 3; ++a)
+      d[a] = maxLanes(hi[a] - lo[a], Float4{}); // (an empty box: −∞ − ∞, taken as 0)
+    const Float4 zero{};
+    const Float4 xy01 = __builtin_shufflevector(d[0], d[1], 0, 4, 1, 5), xy2 = __builtin_shufflevector(d[2], zero, 0, 4, 1, 5);
+    const Float4 zw01 = __builtin_shufflevector(d[0], d[1], 2, 6, 3, 7), zw2 = __builtin_shufflevector(d[2], zero, 2, 6, 3, 7);
+    const Float4 x = __builtin_shufflevector(xy01, xy2, 0, 1, 4, 5), y = __builtin_shufflevector(xy01, xy2, 2, 3, 6, 7);
+    const Float4 z = __builtin_shufflevector(zw01, zw2, 0, 1, 4, 5);
+    out = x * (y + z) + y * z;
+  }
+
+  /// [sweep]
+  // sah's sweeps over its bins (bins_): the three axes side by side, one to a lane of V (four
+  // floats or four doubles). From the right, the area and count of everything right of each boundary (bins 1 to
+  // bins − 1 are written before they are read); then from the left, each boundary priced (left: bins 0..b, right:
+  // bins b+1..), counting tests by packs of four when `byPacks`. Leaves in bestSum, bestAxis and bestBin the
+  // cheapest boundary, A_L·N_L + A_R·N_R, if one is cheaper than bestSum: the first of equals, axis by axis, bin by
+  // bin (a boundary after an empty bin splits the items as the one before it does, at the same price).
+  template <class V> void sweep(int bins, bool byPacks, double& bestSum, int& bestAxis, int& bestBin) const
+  {
+    using Mask = decltype(V{} < V{});
+    std::array<V, kMaxBins> rightArea;
+    std::array<Mask4, kMaxBins> rightCount;
+    Float4 sideLo[3] = {kEmptyLo, kEmptyLo, kEmptyLo}, sideHi[3] = {kEmptyHi, kEmptyHi, kEmptyHi};
+    Mask4 sideCount{};
+    for (std::size_t b = std::size_t(bins) - 1; b > 0; --b) {
+      for (std::size_t axis = 0; axis < 3; ++axis) {
+        sideLo[axis] = minLanes(sideLo[axis], bins_.lo[b][axis]);
+        sideHi[axis] = maxLanes(sideHi[axis], bins_.hi[b][axis]);
+      }
+      sideCount += bins_.count[b];
+      halfAreas(sideLo, sideHi, rightArea[b]);
+      rightCount[b] = sideCount;
+    }
+    V best = std::numeric_limits<float>::infinity() - V{}, bestAt{}; // per axis: the cheapest sum, and its bin
+    std::fill_n(sideLo, 3, kEmptyLo);
+    std::fill_n(sideHi, 3, kEmptyHi);
+    sideCount = Mask4{};
+    for (std::size_t b = 0; b + 1 < std::size_t(bins); ++b) {
+      for (std::size_t axis = 0; axis < 3; ++axis) {
+        sideLo[axis] = minLanes(sideLo[axis], bins_.lo[b][axis]);
+        sideHi[axis] = maxLanes(sideHi[axis], bins_.hi[b][axis]);
+      }
+      sideCount += bins_.count[b];
+      V leftArea;
+      halfAreas(sideLo, sideHi, leftArea);
+      const Mask4 testsLeft = byPacks ? (sideCount + 3) >> 2 : sideCount;
+      const Mask4 testsRight = byPacks ? (rightCount[b + 1] + 3) >> 2 : rightCount[b + 1];
+      const V sum = leftArea * __builtin_convertvector(testsLeft, V) + rightArea[b + 1] * __builtin_convertvector(testsRight, V);
+      const Mask apart = __builtin_convertvector((sideCount > 0) & (rightCount[b + 1] > 0), Mask);
+      const Mask cheaper = (sum < best) & apart;
+      best = cheaper ? sum : best;
+      bestAt = cheaper ? float(b) - V{} : bestAt;
+    }
+    for (int axis = 0; axis < 3; ++axis)
+      if (double(best[axis]) < bestSum) {
+        bestSum = double(best[axis]);
+        bestAxis = axis;
+        bestBin = int(bestAt[axis]);
+      }
+  }
+  /// [sweep]
+
+  /// [sah]
+  // The surface area heuristic. A ray that hits a node's box hits a child's box with probability about
+  // A_child / A_node (for rays from all directions), so splitting into L and R costs, per ray,
+  //   C = C_trav + (A_L / A)·N_L·C_isect + (A_R / A)·N_R·C_isect,
+  // against N·C_isect for keeping the node a leaf. The centres are sorted into a few bins per axis, and every
+  // boundary between bins is priced; the cheapest wins.
+  // Triangles are tested four at a time, a pack at a time: in a big tree (BvhBuildOptions::packPricedFrom), N counts
+  // a node of triangles' packs of four, ⌈N/4⌉, so that the SAH makes leaves of full packs where it can.
+  std::optional<Split> sah(std::size_t begin, std::size_t end, const ItemsInfo& info)
+  {
+    const std::size_t n = end - begin;
+    const BvhCosts costs;
+    const int bins = options_.bins;
+    const double nodeArea = double(toBounds(info.lo, info.hi).surfaceArea()) / 2; // (half, as the sweeps' areas are)
+    const bool triangles = !info.anySphere;
+    const bool byPacks = triangles && packPriced_;
+    const Real leafCost = Real(byPacks ? (n + 3) / 4 : n) * costs.intersection;
+    const std::size_t maxLeaf = std::size_t(triangles ? options_.maxTriangleLeafSize : options_.maxLeafSize);
+
+    // The cheapest boundary: on `bestAxis`, after bin `bestBin`, at A_L·N_L + A_R·N_R = bestSum.
+    double bestSum = std::numeric_limits<double>::infinity();
+    int bestAxis = -1, bestBin = -1;
+    // Per axis, a centre c's bin is (c − origin)·scale, clamped to [0, bins − 1] and truncated. An axis that cannot
+    // be split keeps origin 0 and scale 0: its items all fall in bin 0, where no boundary separates any.
+    Float4 origin{}, scale{};
+    if (nodeArea > 0 && nodeArea < std::numeric_limits<double>::infinity()) {
+      for (int axis = 0; axis < 3; ++axis) {
+        // (Every centre in one plane across an axis: nothing to split there. And a spread so small that
+        // bins / spread overflows a float is as good as none.)
+        const Real spread = Real(info.centerHi[axis]) - Real(info.centerLo[axis]);
+        const float s = float(Real(bins) / spread);
+        if (spread > 0 && std::isfinite(s) && s > 0) {
+          origin[axis] = info.centerLo[axis];
+          scale[axis] = s;
+        }
+      }
+      // Sort the centres into bins on the three axes at once, in one pass over the items (which for a million
+      // triangles do not fit in the cache). A node near the root, on every core its builder has: each bins its
+      // share, and the shares' bins are added up (the same bins whatever the number of shares).
+      const int cores = threads_ / kSubtreesPerThread;
+      bins_.clear(bins);
+      if (cores > 1 && n >= kParallelBinsMin) {
+        std::vector<Bins> shares(shareCount(n, cores));
+        parallelShares(n, cores, [&](std::size_t k, std::size_t first, std::size_t last) {
+          shares[k].clear(bins);
+          shares[k].add(items_, begin + first, begin + last, origin, scale, bins);
+        });
+        for (const Bins& share : shares)
+          bins_.add(share, bins);
+      } else {
+        bins_.add(items_, begin, end, origin, scale, bins);
+      }
+      // The sweeps, in float where every sum they form is well inside float's range (a node under 2^46 scene
+      // units across: its sums are at most 2·3·(2^46)²·n), and above 2^−40 across (so that its areas are not lost
+      // to underflow); in double elsewhere.
+      const Double4 extent = __builtin_convertvector(info.hi, Double4) - __builtin_convertvector(info.lo, Double4);
+      const double widest = std::max({extent[0], extent[1], extent[2]});
+      if (widest < 0x1p46 && widest > 0x1p-40)
+        sweep<Float4>(bins, byPacks, bestSum, bestAxis, bestBin);
+      else
+        sweep<Double4>(bins, byPacks, bestSum, bestAxis, bestBin);
+    }
+
+    // Keep a leaf when no split pays for itself (and the leaf is small enough).
+    const Real bestCost = costs.traversal + Real(bestSum / nodeArea) * costs.intersection;
+    if (n <= maxLeaf && !(bestCost < leafCost))
+      return std::nullopt;
+    if (bestAxis < 0) // no boundary separates any centres: split by count
+      return equalCounts(begin, end, longestAxis(toBounds(info.centerLo, info.centerHi)));
+    Split split = partition(begin, end, origin, scale, bestAxis, bestBin);
+    if (split.mid == begin || split.mid == end) // (never, as the bins were counted: but never an empty child)
+      return equalCounts(begin, end, bestAxis);
+    return split;
+  }
+  /// [sah]
+
+  // Items [begin, end) rearranged: those whose centre's bin on `axis` is at most `lastBin` first, and each side added
+  // up on the way (the pass that moves them reads them anyway).
+  Split partition(std::size_t begin, std::size_t end, Float4 origin, Float4 scale, int axis, int lastBin)
+  {
+    Split split{};
+    // An item goes first when its bin is at most lastBin, that is when (c − origin)·scale < lastBin + 1 (before
+    // binsOf's clamps: lastBin + 1 ≤ bins − 1, and truncating a y ≥ 0 gives at most lastBin just when y < lastBin + 1).
+    // The same product as binsOf's, so the same side as the bins counted it on.
+    const float bound = float(lastBin + 1);
+    const Float4 below = {bound, bound, bound, bound};
+    struct Seen {
+      Float4 lo, hi, center;
+      bool first;
+    };
+    auto see = [&](const BuildItem& item) {
+      Seen seen{lower(item), upper(item), {}, false};
+      seen.center = center(seen.lo, seen.hi);
+      seen.first = (bitMask((seen.center - origin) * scale < below) >> axis) & 1;
+      return seen;
+    };
+    std::size_t i = begin, j = end;
+    while (true) {
+      Seen atI{}, atJ{}; // item i, and item j − 1, as last seen
+      while (i < j && (atI = see(items_[i])).first) {
+        split.first.add(atI.lo, atI.hi, atI.center, items_[i].index < spheres_);
+        ++i;
+      }
+      while (i < j && !(atJ = see(items_[j - 1])).first) {
+        split.second.add(atJ.lo, atJ.hi, atJ.center, items_[j - 1].index < spheres_);
+        --j;
+      }
+      if (i == j)
+        break;
+      // Item i goes second and item j − 1 first: swapped, each now on its own side.
+      std::swap(items_[i], items_[j - 1]);
+      split.first.add(atJ.lo, atJ.hi, atJ.center, items_[i].index < spheres_);
+      split.second.add(atI.lo, atI.hi, atI.center, items_[j - 1].index < spheres_);
+      ++i;
+      --j;
+    }
+    split.mid = i;
+    return split;
+  }
+
+  std::vector<BuildItem>& items_;
+  int spheres_;
+  BvhBuildOptions options_;
+  int threads_;
+  bool packPriced_; // the tree has BvhBuildOptions::packPricedFrom triangles or more
+  // sah's bins (the builder's, so as not to make them afresh at every node).
+  Bins bins_;
+};
+
+// ---- Huge primitives -----------------------------------------------------------------------------------------
+
+/// [outside]
+// The primitives to keep out of the tree (Bvh::outsidePrimitives), by number, increasing. Rank the kMaxOutside
+// biggest boxes by surface area (the lower number first on a tie); the box of everything ranked after rank j is
+// rest(j). Take the deepest rank j whose box has at least kHugeAreaRatio times rest(j)'s area and overlaps it:
+// ranks 1..j go out (each is at least as big as rank j, and the tree keeps only rest(j)). At most a quarter of the
+// primitives go out (each costs every ray a test, and a tree over a handful costs little anyway).
+std::vector<int> chooseOutside(const std::vector<BuildItem>& items)
+{
+  const std::size_t n = items.size();
+  const std::size_t k = std::min<std::size_t>(std::size_t(kMaxOutside), n / 4);
+  if (k == 0)
+    return {};
+  // The k biggest, biggest first, in one pass (a million triangles: no sort, no copy).
+  struct Ranked {
+    Real area;
+    std::size_t item;
+  };
+  std::vector<Ranked> top;
+  top.reserve(k + 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Real area = toBounds(lower(items[i]), upper(items[i])).surfaceArea();
+    if (top.size() == k && !(area > top.back().area))
+      continue;
+    std::size_t at = top.size();
+    while (at > 0 && area > top[at - 1].area)
+      --at;
+    top.insert(top.begin() + std::ptrdiff_t(at), Ranked{area, i});
+    if (top.size() > k)
+      top.pop_back();
+  }
+  // rest(k): everything but the ranked; then rest(j − 1) = rest(j) and rank j.
+  std::vector<char> ranked(n, 0);
+  for (const Ranked& r : top)
+    ranked[r.item] = 1;
+  Float4 restLo = kEmptyLo, restHi = kEmptyHi;
+  for (std::size_t i = 0; i < n; ++i)
+    if (!ranked[i]) {
+      restLo = minLanes(restLo, lower(items[i]));
+      restHi = maxLanes(restHi, upper(items[i]));
+    }
+  Bounds3 rest = toBounds(restLo, restHi);
+  std::size_t out = 0;
+  for (std::size_t j = top.size(); j >= 1; --j) {
+    const BuildItem& item = items[top[j - 1].item];
+    const Bounds3 box = toBounds(lower(item), upper(item));
+    const bool empty = box.lo.x > rest.hi.x || box.lo.y > rest.hi.y || box.lo.z > rest.hi.z || rest.lo.x > box.hi.x ||
+                       rest.lo.y > box.hi.y || rest.lo.z > box.hi.z; // the two boxes do not overlap
+    if (top[j - 1].area >= kHugeAreaRatio * rest.surfaceArea() && !empty) {
+      out = j;
+      break;
+    }
+    rest = rest.merged(box);
+  }
+  std::vector<int> numbers;
+  for (std::size_t j = 0; j < out; ++j)
+    numbers.push_back(items[top[j].item].index);
+  std::sort(numbers.begin(), numbers.end());
+  return numbers;
+}
+/// [outside]
 
 // ---- The box test ---------------------------------------------------------------------------------------------
 
@@ -831,10 +1098,10 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   parallelFor(all, threads, [&](std::size_t first, std::size_t last) {
     for (std::size_t i = first; i < last; ++i)
       if (i < spheres.size()) {
-        items[i] = BuildItem{sphereBounds(spheres[i]), int(i)};
+        items[i] = buildItem(sphereBounds(spheres[i]), int(i));
       } else {
         const Triangle& tri = triangles[i - spheres.size()];
-        items[i] = BuildItem{triangleBounds(vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]), int(i)};
+        items[i] = buildItem(triangleBounds(vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]), int(i));
       }
   });
   eightAtOnce_ = options.eightAtOnce && cpuHasAvx2();
@@ -871,8 +1138,7 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   // as the nodes are made, before the primitives' own copies are (the build's memory peak for a big mesh).
   std::vector<int> order(count);
   {
-    // (Four subtrees a thread, so that a lopsided split near the root leaves no core idle for long.)
-    Builder builder(items, int(spheres.size()), options, threads > 1 ? 4 * threads : 1);
+    Builder builder(items, int(spheres.size()), options, threads > 1 ? Builder::kSubtreesPerThread * threads : 1);
     // Room for the most nodes a tree of `count` primitives can have (2·count − 1, leaves of one), reserved at once:
     // the pages never written are never resident, so this holds what the tree uses, where growing by doubling held
     // the old array and the new one, twice as large and written by the copy, at once (a million triangles make 1.3
@@ -880,7 +1146,7 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
     // copy would be the peak.)
     builder.nodes.reserve(std::max<std::size_t>(2 * count, 2) - 1);
     adviseHugePages(builder.nodes);
-    builder.build(0, count, 1);
+    builder.build(0, count, 1, summarize(items, int(spheres.size()), threads));
     nodes_ = std::move(builder.nodes);
     depth_ = builder.depth;
     for (std::size_t k = 0; k < count; ++k)
@@ -894,11 +1160,13 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   // first pack's index).
   // (A still scene keeps no velocities: its queries never look at one.)
   spheres_.reserve(spheres.size());
-  std::size_t packCount = 0;
+  std::size_t packCount = 0, interior = 0;
   for (BvhNode& n : nodes_)
     if (n.count > 0) {
       n.triangles = std::size_t(order[n.offset]) >= spheres.size() ? 1 : 0;
       packCount += n.triangles ? (n.count + 3u) / 4u : 0;
+    } else {
+      ++interior;
     }
   // Corners that are all floats exactly are kept as floats: the same values in half the bytes. (In a float build
   // packs_ holds floats already.)
@@ -968,10 +1236,12 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
     fillPacks(packs_);
   std::vector<int>().swap(order);
 
-  // The tree the queries walk: up to eight children to a node, counted first, so that the array is allocated once at
-  // its size (grown by doubling, it held up to twice that, and its last copy was the build's memory peak: 125 MB for
-  // a million triangles).
-  wideNodes_.reserve(wideNodeCount(0));
+  // The tree the queries walk: up to eight children to a node. Its array is allocated once, with room for as many
+  // wide nodes as there are binary interior nodes (each wide node takes one's place; or one, a root over a single
+  // leaf): some four times what it uses, but the pages never written are never resident. (Grown by doubling, it
+  // held up to twice what it uses, and its last copy was the build's memory peak: 125 MB for a million triangles.
+  // Counted exactly first, the count was as long as the collapse.)
+  wideNodes_.reserve(std::max<std::size_t>(interior, 1));
   adviseHugePages(wideNodes_);
   collapse(0);
   if (!options.keepBinaryTree) {
@@ -997,34 +1267,29 @@ int Bvh::wideChildren(std::uint32_t node, std::uint32_t (&children)[BvhWideNode:
     children[n++] = node; // the whole tree is one leaf: a root with one child
     return n;
   }
-  children[n++] = node + 1;
-  children[n++] = nodes_[node].offset;
+  // Each child's area, or −1 for a leaf (never opened).
+  Real area[kWidth];
+  auto take = [&](int k, std::uint32_t child) {
+    children[k] = child;
+    area[k] = nodes_[child].count == 0 ? nodeArea(nodes_[child]) : Real(-1);
+  };
+  take(n++, node + 1);
+  take(n++, nodes_[node].offset);
   while (n < kWidth) {
     int widest = -1;
     Real widestArea = -1;
     for (int k = 0; k < n; ++k)
-      if (nodes_[children[k]].count == 0 && nodeArea(nodes_[children[k]]) > widestArea) {
+      if (area[k] > widestArea) {
         widest = k;
-        widestArea = nodeArea(nodes_[children[k]]);
+        widestArea = area[k];
       }
     if (widest < 0)
       break; // every child a leaf
     const std::uint32_t opened = children[widest];
-    children[widest] = opened + 1;
-    children[n++] = nodes_[opened].offset;
+    take(widest, opened + 1);
+    take(n++, nodes_[opened].offset);
   }
   return n;
-}
-
-std::size_t Bvh::wideNodeCount(std::uint32_t node) const
-{
-  std::uint32_t children[BvhWideNode::kWidth];
-  const int n = wideChildren(node, children);
-  std::size_t count = 1;
-  for (int k = 0; k < n; ++k)
-    if (nodes_[children[k]].count == 0)
-      count += wideNodeCount(children[k]);
-  return count;
 }
 
 std::uint32_t Bvh::collapse(std::uint32_t node)

@@ -349,7 +349,6 @@ private:
   void prefetchChild(std::uint32_t child) const;
   // The binary nodes a wide node made from binary interior `node` takes as its children (see collapse).
   int wideChildren(std::uint32_t node, std::uint32_t (&children)[BvhWideNode::kWidth]) const;
-  std::size_t wideNodeCount(std::uint32_t node) const; // the wide nodes collapse(node) makes
   std::uint32_t collapse(std::uint32_t node);
 
   std::vector<BvhNode> nodes_;
