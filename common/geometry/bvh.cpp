@@ -103,6 +103,8 @@ RAYLIFE_AVX2 unsigned bitMask(const Mask8& m) { return unsigned(_mm256_movemask_
 // returns when all are done. For work whose every index writes only its own places: then the result is the same
 // whatever the number of threads. (Shares under kMinShare indices are not worth a thread's start.)
 constexpr std::size_t kMinShare = 4096;
+// Fewest binary nodes whose collapse is worth a thread of its own (some 32,000: about half a millisecond's work).
+constexpr std::size_t kCollapseAsideMin = std::size_t(1) << 15;
 std::size_t shareCount(std::size_t n, int threads)
 {
   return std::clamp<std::size_t>(n / kMinShare, 1, std::size_t(std::max(threads, 1)));
@@ -1241,7 +1243,9 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
   {
     // Collapsed on a thread of its own while the packs are filled: the collapse reads the binary tree and writes
     // the wide nodes (and the spheres' last-in-leaf marks), the packs' filling reads `packed` and `order` and
-    // writes the packs. (Serial, after the packs, it was a tenth of a million triangles' build on two cores.)
+    // writes the packs. (Serial, after the packs, it was a tenth of a million triangles' build on two cores. Not
+    // for a small tree, whose whole collapse takes less than starting a thread.)
+    const bool aside = threads > 1 && nodes_.size() >= kCollapseAsideMin;
     struct Joined {
       std::thread thread;
       ~Joined()
@@ -1250,13 +1254,13 @@ Bvh::Bvh(std::span<const Sphere> spheres, std::span<const Vec3> vertices, std::s
           thread.join();
       }
     } collapser;
-    if (threads > 1)
+    if (aside)
       collapser.thread = std::thread([this] { collapse(0); });
     if (floatCorners)
       fillPacks(floatPacks_);
     else if (packCount > 0)
       fillPacks(packs_);
-    if (threads <= 1)
+    if (!aside)
       collapse(0);
   }
   std::vector<int>().swap(order);
