@@ -40,7 +40,6 @@ Bounds3 sphereBounds(const Sphere& s)
   return s.moving() ? at(s.center).merged(at(s.center + s.velocity)) : at(s.center);
 }
 
-// A triangle's box, widened as a sphere's is: by kBoxMargin relative to the size of its coordinates.
 // The float at or below x (and at or above, for roundUp): a float box rounded outwards holds the exact box.
 float roundDown(Real x)
 {
@@ -62,6 +61,7 @@ float roundDown(Real x)
 
 float roundUp(Real x) { return -roundDown(-x); }
 
+// A triangle's box, widened as a sphere's is: by kBoxMargin relative to the size of its coordinates.
 Bounds3 triangleBounds(const Vec3& p0, const Vec3& p1, const Vec3& p2)
 {
   const Bounds3 exact = Bounds3{p0, p0}.merged(p1).merged(p2);
@@ -99,17 +99,18 @@ RAYLIFE_AVX2 unsigned bitMask(const Mask8& m) { return unsigned(_mm256_movemask_
 
 // ---- Building -------------------------------------------------------------------------------------------------
 
-// Calls work(first, last) for consecutive shares of [0, n) on up to `threads` threads, this one among them, and
-// returns when all are done. For work whose every index writes only its own places: then the result is the same
-// whatever the number of threads. (Shares under kMinShare indices are not worth a thread's start.)
+// Fewest indices a share of parallelFor's work has (fewer are not worth a thread's start).
 constexpr std::size_t kMinShare = 4096;
 // Fewest binary nodes whose collapse is worth a thread of its own (some 32,000: about half a millisecond's work).
 constexpr std::size_t kCollapseAsideMin = std::size_t(1) << 15;
+
+// How many shares parallelFor cuts [0, n) into on up to `threads` threads.
 std::size_t shareCount(std::size_t n, int threads)
 {
   return std::clamp<std::size_t>(n / kMinShare, 1, std::size_t(std::max(threads, 1)));
 }
-// The same, calling work(share, first, last) for share k of shareCount(n, threads).
+// Calls work(share, first, last) for share k of shareCount(n, threads): consecutive shares [first, last) of [0, n),
+// on up to `threads` threads, this one among them, and returns when all are done.
 template <class Work> void parallelShares(std::size_t n, int threads, const Work& work)
 {
   const std::size_t shares = shareCount(n, threads);
@@ -120,6 +121,8 @@ template <class Work> void parallelShares(std::size_t n, int threads, const Work
   for (std::thread& worker : workers)
     worker.join();
 }
+// The same, calling work(first, last). For work whose every index writes only its own places: then the result is
+// the same whatever the number of threads.
 template <class Work> void parallelFor(std::size_t n, int threads, const Work& work)
 {
   parallelShares(n, threads, [&work](std::size_t, std::size_t first, std::size_t last) { work(first, last); });
@@ -303,8 +306,8 @@ Mask4 binsOf(Float4 center, Float4 origin, Float4 scale, int bins)
 // The SAH's bins over a node's items: on each axis, how many centres fall in each bin (one axis to a lane), and the
 // box of their primitives (an empty box for none).
 struct Bins {
-  std::array<Mask4, kMaxBins> count;                     // [bin][axis]
-  std::array<std::array<Float4, 3>, kMaxBins> lo, hi;    // [bin][axis]
+  std::array<Mask4, kMaxBins> count;                  // [bin][axis]
+  std::array<std::array<Float4, 3>, kMaxBins> lo, hi; // [bin][axis]
 
   // Bins 0 to bins − 1 emptied. (Only those: emptied whole, all kMaxBins of them at every node, they were a fifth
   // of the SAH's time on a mesh of a million triangles, whose nodes are mostly small.)
@@ -515,20 +518,22 @@ private:
     for (int a = 0; a < 3; ++a)
       d[a] = maxLanes(hi[a] - lo[a], Float4{}); // (an empty box: −∞ − ∞, taken as 0)
     const Float4 zero{};
-    const Float4 xy01 = __builtin_shufflevector(d[0], d[1], 0, 4, 1, 5), xy2 = __builtin_shufflevector(d[2], zero, 0, 4, 1, 5);
-    const Float4 zw01 = __builtin_shufflevector(d[0], d[1], 2, 6, 3, 7), zw2 = __builtin_shufflevector(d[2], zero, 2, 6, 3, 7);
+    const Float4 xy01 = __builtin_shufflevector(d[0], d[1], 0, 4, 1, 5);
+    const Float4 xy2 = __builtin_shufflevector(d[2], zero, 0, 4, 1, 5);
+    const Float4 zw01 = __builtin_shufflevector(d[0], d[1], 2, 6, 3, 7);
+    const Float4 zw2 = __builtin_shufflevector(d[2], zero, 2, 6, 3, 7);
     const Float4 x = __builtin_shufflevector(xy01, xy2, 0, 1, 4, 5), y = __builtin_shufflevector(xy01, xy2, 2, 3, 6, 7);
     const Float4 z = __builtin_shufflevector(zw01, zw2, 0, 1, 4, 5);
     out = x * (y + z) + y * z;
   }
 
   /// [sweep]
-  // sah's sweeps over its bins (bins_): the three axes side by side, one to a lane of V (four
-  // floats or four doubles). From the right, the area and count of everything right of each boundary (bins 1 to
-  // bins − 1 are written before they are read); then from the left, each boundary priced (left: bins 0..b, right:
-  // bins b+1..), counting tests by packs of four when `byPacks`. Leaves in bestSum, bestAxis and bestBin the
-  // cheapest boundary, A_L·N_L + A_R·N_R, if one is cheaper than bestSum: the first of equals, axis by axis, bin by
-  // bin (a boundary after an empty bin splits the items as the one before it does, at the same price).
+  // sah's sweeps over its bins (bins_): the three axes side by side, one to a lane of V (four floats or four
+  // doubles). From the right, the area and count of everything right of each boundary (bins 1 to bins − 1 are
+  // written before they are read); then from the left, each boundary priced (left: bins 0..b, right: bins b+1..),
+  // counting tests by packs of four when `byPacks`. Leaves in bestSum, bestAxis and bestBin the cheapest boundary,
+  // A_L·N_L + A_R·N_R, if one is cheaper than bestSum: the first of equals, axis by axis, bin by bin (a boundary
+  // after an empty bin splits the items as the one before it does, at the same price).
   template <class V> void sweep(int bins, bool byPacks, double& bestSum, int& bestAxis, int& bestBin) const
   {
     using Mask = decltype(V{} < V{});
@@ -559,7 +564,8 @@ private:
       halfAreas(sideLo, sideHi, leftArea);
       const Mask4 testsLeft = byPacks ? (sideCount + 3) >> 2 : sideCount;
       const Mask4 testsRight = byPacks ? (rightCount[b + 1] + 3) >> 2 : rightCount[b + 1];
-      const V sum = leftArea * __builtin_convertvector(testsLeft, V) + rightArea[b + 1] * __builtin_convertvector(testsRight, V);
+      const V sum = leftArea * __builtin_convertvector(testsLeft, V) +
+                    rightArea[b + 1] * __builtin_convertvector(testsRight, V);
       const Mask apart = __builtin_convertvector((sideCount > 0) & (rightCount[b + 1] > 0), Mask);
       const Mask cheaper = (sum < best) & apart;
       best = cheaper ? sum : best;
@@ -604,8 +610,8 @@ private:
     // The cheapest boundary: on `bestAxis`, after bin `bestBin`, at A_L·N_L + A_R·N_R = bestSum.
     double bestSum = std::numeric_limits<double>::infinity();
     int bestAxis = -1, bestBin = -1;
-    // Per axis, a centre c's bin is (c − origin)·scale, clamped to [0, bins − 1] and truncated. An axis that cannot
-    // be split keeps origin 0 and scale 0: its items all fall in bin 0, where no boundary separates any.
+    // Per axis, a centre c's bin is (c − origin)·scale, clamped to [0, bins − 1] and truncated. An axis that
+    // cannot be split keeps origin 0 and scale 0: its items all fall in bin 0, where no boundary separates any.
     Float4 origin{}, scale{};
     if (nodeArea > 0 && nodeArea < std::numeric_limits<double>::infinity()) {
       for (int axis = 0; axis < 3; ++axis) {
@@ -664,8 +670,8 @@ private:
   {
     Split split{};
     // An item goes first when its bin is at most lastBin, that is when (c − origin)·scale < lastBin + 1 (before
-    // binsOf's clamps: lastBin + 1 ≤ bins − 1, and truncating a y ≥ 0 gives at most lastBin just when y < lastBin + 1).
-    // The same product as binsOf's, so the same side as the bins counted it on.
+    // binsOf's clamps: lastBin + 1 ≤ bins − 1, and truncating a y ≥ 0 gives at most lastBin just when
+    // y < lastBin + 1). The same product as binsOf's, so the same side as the bins counted it on.
     const float bound = float(lastBin + 1);
     const Float4 below = {bound, bound, bound, bound};
     struct Seen {
