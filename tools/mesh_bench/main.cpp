@@ -9,7 +9,8 @@
 //   Rays: a camera looking at the mesh from outside its bounding sphere, one ray through each pixel (W×H, default
 //   512x512), and from every camera hit one ray in a cosine-distributed direction about the surface's normal (the
 //   rays a diffuse bounce makes). A scene: its triangles (every mesh, placed as the scene places it; its spheres
-//   left out) seen through its own camera, one ray through each pixel. Each query set is timed for about S seconds (default 1), best of three rounds.
+//   left out) seen through its own camera, one ray through each pixel. Each query set is timed for about S seconds
+//   (default 1), best of three rounds.
 //   The builds are timed again on one thread and on every core, best of R rounds (default 2), raylife's and
 //   Embree's each on its best thread count, and their ratio printed: the queries run on one thread, a build may not.
 //   --check: exit 1 if raylife and Embree disagree (hit, or distance) on more than 0.1 % of the rays.
@@ -251,11 +252,11 @@ int main(int argc, char** argv)
     for (int x = 0; x < o.width; ++x) {
       const Real fx = Real(x) + uniform();
       const Real fy = Real(y) + uniform();
-      const Real px = (2 * fx / Real(o.width) - 1) * half;
-      const Real py = (1 - 2 * fy / Real(o.height)) * half;
       if (sceneCamera) {
         cameraRays.push_back(sceneCamera->ray(Vec2(fx, fy)));
       } else {
+        const Real px = (2 * fx / Real(o.width) - 1) * half;
+        const Real py = (1 - 2 * fy / Real(o.height)) * half;
         cameraRays.push_back(Ray{eye, glm::normalize(u * px + v * py - w), 0, kInfinity});
       }
     }
