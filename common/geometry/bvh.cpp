@@ -891,8 +891,9 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
   // late when o is rounded down. A negative direction the other way round. (Chosen by a mask, without a branch.)
   const Float4 originNear = (Float4)((negative & (Mask4)originBelow) | (~negative & (Mask4)originAbove));
   const Float4 originFar = (Float4)((negative & (Mask4)originAbove) | (~negative & (Mask4)originBelow));
+  const unsigned flips = bitMask(negative);
   for (int a = 0; a < 3; ++a) {
-    const std::size_t flipped = std::size_t(negative[a] & 1);
+    const std::size_t flipped = (flips >> a) & 1;
     r.nearRow[a] = (3 * flipped + std::size_t(a)) * kRow;
     r.farRow[a] = (3 * (1 - flipped) + std::size_t(a)) * kRow;
     fill(r.originNear[a], originNear[a]);
@@ -1043,12 +1044,9 @@ template <class T>
   auto refused = (((e0 < 0) | (e1 < 0) | (e2 < 0)) & ((e0 > 0) | (e1 > 0) | (e2 > 0))) | (det == 0) |
                  ((det < 0) & (tScaled >= 0)) | ((det > 0) & (tScaled <= 0));
   const unsigned live = (1u << count) - 1;
-  auto bits = [live](const auto& mask) {
-    unsigned b = 0;
-    for (int k = 0; k < 4; ++k)
-      b |= unsigned(mask[k] != 0) << k;
-    return b & live;
-  };
+  // (Narrowed to four 32-bit lanes for one movemask: lane by lane, the bits were a twentieth of a query's
+  // instructions on a million triangles, by callgrind.)
+  auto bits = [live](const auto& mask) { return bitMask(__builtin_convertvector(mask, Mask4)) & live; };
   if constexpr (std::is_same_v<Real, float>) {
     const auto zero = (e0 == 0) | (e1 == 0) | (e2 == 0);
     out.retest = bits(zero); // (its t comes from the edge functions in double: any t)
