@@ -634,26 +634,40 @@ TEST_CASE("Ctrl-C in the middle of a batch of many samples reports what the pixe
 
 TEST_CASE("with --time T a chapter with an image beside its render stops at about T, both images included (issue 43)")
 {
-  // Chapters 9 and 10 render a second image beside the first; both come out of the one time budget. The render
-  // loop's own seconds (what the summary line and --stats report) within 10 % of T; the whole run, loading
-  // included, within 10 % and a second (generous: another test may load the machine).
+  // Chapters 9 and 10 render a second image beside the first; both come out of the one time budget: one render
+  // loop renders the two side by side, as one film twice as wide, and stops at about T by its own clock (what the
+  // summary line and --stats report, within 10 % of T). That the loop rendered both is counted, not timed: its
+  // camera rays are the whole double-width film's, width × height × spp. (The whole run's wall clock is no test
+  // of this: loading and writing are outside the budget, and on a loaded machine, with the rest of the suite
+  // running beside it, they once took 1.4 s.)
   for (const std::string& binary : {std::string(STEP09), std::string(STEP10)}) {
     const TempDir dir;
     const double budget = 2.0;
-    const auto started = std::chrono::steady_clock::now();
     const Outcome o = run(binary, {"--time", "2", "--width", "64", "-o", "out.pfm", "--stats", "s.json"}, dir.path());
-    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    INFO(binary << ": " << o.err << "wall " << wall << " s");
+    INFO(binary << ": " << o.err);
     REQUIRE(o.status == 0);
     const std::string stats = readFile(dir.path() / "s.json");
-    std::smatch k;
-    REQUIRE(std::regex_search(stats, k, std::regex(R"("seconds": ([0-9.e+-]+))")));
-    const double seconds = std::stod(k[1]);
     INFO(stats);
+    auto number = [&](const std::string& key) {
+      std::smatch k;
+      REQUIRE(std::regex_search(stats, k, std::regex("\"" + key + "\": ([0-9.e+-]+)")));
+      return std::stod(k[1]);
+    };
+    const double seconds = number("seconds");
     CHECK(seconds >= 0.9 * budget);
     CHECK(seconds <= 1.1 * budget);
-    CHECK(wall <= 1.1 * budget + 1.0);
-    CHECK(raylife::readPfm((dir.path() / "out.pfm").string()).width == 128); // both images
+    CHECK(number("width") == 128); // both images, in the loop's film
+    CHECK(number("camera_rays") ==
+          Approx(number("width") * number("height") * number("mean_spp")).epsilon(1e-5));
+    // Both halves rendered: light in each.
+    const raylife::Image image = raylife::readPfm((dir.path() / "out.pfm").string());
+    REQUIRE(image.width == 128);
+    double left = 0, right = 0;
+    for (int y = 0; y < image.height; ++y)
+      for (int x = 0; x < image.width; ++x)
+        (x < 64 ? left : right) += image.at(x, y, 0) + image.at(x, y, 1) + image.at(x, y, 2);
+    CHECK(left > 0);
+    CHECK(right > 0);
   }
 }
 
