@@ -336,10 +336,11 @@ private:
   void interleave(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   template <int kInFlight> void interleaveEight(std::span<const Ray> rays, std::span<std::optional<BvhHit>> out) const;
   // A leaf's primitives against a ray, into `found`: true when it changed (closest hit) or at a blocker (any hit).
-  template <bool kAnyHit, bool kCountWork>
+  // kEight: called from the eight-lane (AVX2) walk, and so free to use AVX.
+  template <bool kAnyHit, bool kCountWork, bool kEight>
   bool testLeaf(const Ray& ray, std::uint32_t leaf, const BvhTriangleRay& triangleRay, Traversal& found) const;
   // testLeaf's leaf of triangles, its packs from packs[first] on.
-  template <bool kAnyHit, bool kCountWork, class Pack>
+  template <bool kAnyHit, bool kCountWork, bool kEight, class Pack>
   bool testPacks(const std::vector<Pack>& packs, std::uint32_t first, const Ray& ray,
                  const BvhTriangleRay& triangleRay, Traversal& found) const;
   // intersectPacket for one packet (at most kPacket rays), with V the lanes of the box test; the eight-lane one.
