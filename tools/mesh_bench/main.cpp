@@ -5,15 +5,20 @@
 // chapter uses it.
 //
 // usage: mesh_bench MESH.ply|MESH.obj|SCENE.json [--size WxH] [--seconds S] [--seed N] [--build-rounds R]
-//                   [--no-embree] [--check]
+//                   [--no-embree] [--check] [--passes N camera|bounce|embree-camera|embree-bounce]
 //   Rays: a camera looking at the mesh from outside its bounding sphere, one ray through each pixel (W×H, default
 //   512x512), and from every camera hit one ray in a cosine-distributed direction about the surface's normal (the
 //   rays a diffuse bounce makes). A scene: its triangles (every mesh, placed as the scene places it; its spheres
 //   left out) seen through its own camera, one ray through each pixel. Each query set is timed for about S seconds
-//   (default 1), best of three rounds.
+//   (default 1), best of three rounds; beside Embree, raylife's and Embree's queries in turns, ten rounds of S/10
+//   seconds each, and the ratio is the median of the rounds' ratios (the Mrays/s printed are each one's best round).
 //   The builds are timed again on one thread and on every core, best of R rounds (default 2), raylife's and
 //   Embree's each on its best thread count, and their ratio printed: the queries run on one thread, a build may not.
 //   --check: exit 1 if raylife and Embree disagree (hit, or distance) on more than 0.1 % of the rays.
+//   --passes N SET: instead of the timings, N passes of one set of rays through one of the two (raylife's by
+//   default, Embree's for embree-…), then exit: a fixed amount of work for a profiler. The difference between two
+//   runs with different N is what the queries alone cost, e.g. instructions a query from
+//     valgrind --tool=callgrind --toggle-collect='*queryEight<false, false>*' mesh_bench M.ply --passes 5 bounce
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "core/frame.h"
@@ -79,22 +84,59 @@ double residentMegabytes()
   return double(resident) * double(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
 
-// Rays per second of `query` over `rays`: as many passes as fill about `budget` seconds, best of three rounds.
+// Rays per second of `query` over `rays`, in as many passes as fill about `span` seconds.
+double rate(const std::vector<Ray>& rays, double span, const std::function<void(const Ray&)>& query)
+{
+  const auto start = Clock::now();
+  std::size_t traced = 0;
+  do {
+    for (const Ray& r : rays)
+      query(r);
+    traced += rays.size();
+  } while (seconds(start) < span);
+  return double(traced) / seconds(start);
+}
+
+// Rays per second of `query` over `rays`: about `budget` seconds in all, best of three rounds.
 double raysPerSecond(const std::vector<Ray>& rays, double budget, const std::function<void(const Ray&)>& query)
 {
   double best = 0;
-  for (int round = 0; round < 3; ++round) {
-    const auto start = Clock::now();
-    std::size_t traced = 0;
-    do {
-      for (const Ray& r : rays)
-        query(r);
-      traced += rays.size();
-    } while (seconds(start) < budget / 3);
-    best = std::max(best, double(traced) / seconds(start));
-  }
+  for (int round = 0; round < 3; ++round)
+    best = std::max(best, rate(rays, budget / 3, query));
   return best;
 }
+
+#if RAYLIFE_EMBREE
+// Two queries over the same rays, timed in turns: `rounds` rounds, in each of which both get about budget/rounds
+// seconds, one after the other (which goes first alternates). A change in the machine's load (these machines are
+// shared) then falls on both alike, and each round's ratio compares the two under the same load.
+struct Turns {
+  double ours = 0, theirs = 0; // the best rays per second of each
+  std::vector<double> ratios;  // each round's ours / theirs, sorted
+  double median() const { return ratios[ratios.size() / 2]; } // (of an even count, the upper of the middle two)
+};
+Turns inTurns(const std::vector<Ray>& rays, double budget, int rounds, const std::function<void(const Ray&)>& ours,
+              const std::function<void(const Ray&)>& theirs)
+{
+  Turns turns;
+  for (int round = 0; round < rounds; ++round) {
+    const double slice = budget / rounds;
+    double a, b;
+    if (round % 2 == 0) {
+      a = rate(rays, slice, ours);
+      b = rate(rays, slice, theirs);
+    } else {
+      b = rate(rays, slice, theirs);
+      a = rate(rays, slice, ours);
+    }
+    turns.ours = std::max(turns.ours, a);
+    turns.theirs = std::max(turns.theirs, b);
+    turns.ratios.push_back(a / b);
+  }
+  std::sort(turns.ratios.begin(), turns.ratios.end());
+  return turns;
+}
+#endif
 
 struct Options {
   std::string mesh;
@@ -104,6 +146,10 @@ struct Options {
   int buildRounds = 2; // each build timed this many times on one thread and on every core, the best kept
   bool embree = true;
   bool check = false; // exit 1 when raylife and Embree disagree on more than 0.1 % of the rays
+  // --passes N SET: only N passes of one query set (camera or bounce, raylife's; embree-camera or embree-bounce),
+  // untimed, then exit: a fixed amount of work for a profiler. 0: off.
+  int passes = 0;
+  std::string passSet;
 };
 
 bool parse(int argc, char** argv, Options& o)
@@ -123,6 +169,13 @@ bool parse(int argc, char** argv, Options& o)
     } else if (arg == "--build-rounds" && i + 1 < argc) {
       o.buildRounds = std::atoi(argv[++i]);
       if (o.buildRounds < 1 || o.buildRounds > 100)
+        return false;
+    } else if (arg == "--passes" && i + 2 < argc) {
+      o.passes = std::atoi(argv[++i]);
+      o.passSet = argv[++i];
+      if (o.passes < 1 || o.passes > 1000000 ||
+          (o.passSet != "camera" && o.passSet != "bounce" && o.passSet != "embree-camera" &&
+           o.passSet != "embree-bounce"))
         return false;
     } else if (arg == "--check") {
       o.check = true;
@@ -144,7 +197,17 @@ int main(int argc, char** argv)
   Options o;
   if (!parse(argc, argv, o)) {
     std::fprintf(stderr, "usage: mesh_bench MESH.ply|MESH.obj|SCENE.json [--size WxH] [--seconds S] [--seed N] "
-                         "[--build-rounds R] [--no-embree] [--check]\n");
+                         "[--build-rounds R] [--no-embree] [--check] [--passes N camera|bounce|embree-camera|"
+                         "embree-bounce]\n");
+    return 2;
+  }
+  bool embree = false; // Embree's queries measured too
+#if RAYLIFE_EMBREE
+  embree = o.embree;
+#endif
+  if (o.passSet.rfind("embree", 0) == 0 && !embree) {
+    std::fprintf(stderr, "mesh_bench: --passes %d %s needs Embree: built with the embree preset, without --no-embree\n",
+                 o.passes, o.passSet.c_str());
     return 2;
   }
   const double baseline = peakMegabytes();
@@ -294,10 +357,23 @@ int main(int argc, char** argv)
   }
   std::size_t sink = 0;
   auto ours = [&](const Ray& r) { sink += bvh.intersect(r).has_value(); };
-  const double ourCamera = raysPerSecond(cameraRays, o.budget, ours);
-  const double ourBounce = raysPerSecond(bounceRays, o.budget, ours);
-  std::printf("raylife Bvh::intersect: camera rays %.2f Mrays/s, bounce rays %.2f Mrays/s\n", ourCamera / 1e6,
-              ourBounce / 1e6);
+  // N untimed passes of one set, for a profiler.
+  auto passes = [&](const std::vector<Ray>& rays, const std::function<void(const Ray&)>& query) {
+    for (int p = 0; p < o.passes; ++p)
+      for (const Ray& r : rays)
+        query(r);
+    std::printf("%d passes of %zu %s rays (%zu hits)\n", o.passes, rays.size(), o.passSet.c_str(), sink);
+  };
+  if (o.passSet == "camera" || o.passSet == "bounce") {
+    passes(o.passSet == "camera" ? cameraRays : bounceRays, ours);
+    return 0;
+  }
+  if (!embree) { // (beside Embree, the two are timed in turns below)
+    const double ourCamera = raysPerSecond(cameraRays, o.budget, ours);
+    const double ourBounce = raysPerSecond(bounceRays, o.budget, ours);
+    std::printf("raylife Bvh::intersect: camera rays %.2f Mrays/s, bounce rays %.2f Mrays/s\n", ourCamera / 1e6,
+                ourBounce / 1e6);
+  }
 
 #if RAYLIFE_EMBREE
   if (o.embree) {
@@ -356,12 +432,24 @@ int main(int argc, char** argv)
                 theirBest ? cores : 1, theirBest && cores > 1 ? "s" : "", ourBuild[ourBest] / theirBuild[theirBest]);
     auto embreeHit = [&](const Ray& r) { return embreeIntersect(scene, r, float(r.tmin)); };
     auto theirs = [&](const Ray& r) { sink += embreeHit(r).hit.geomID != RTC_INVALID_GEOMETRY_ID; };
-    const double theirCamera = raysPerSecond(cameraRays, o.budget, theirs);
-    const double theirBounce = raysPerSecond(bounceRays, o.budget, theirs);
-    std::printf("Embree rtcIntersect1: camera rays %.2f Mrays/s, bounce rays %.2f Mrays/s\n", theirCamera / 1e6,
-                theirBounce / 1e6);
-    std::printf("raylife / Embree: camera rays %.2f, bounce rays %.2f\n", ourCamera / theirCamera,
-                ourBounce / theirBounce);
+    if (o.passes > 0) {
+      passes(o.passSet == "embree-camera" ? cameraRays : bounceRays, theirs);
+      rtcReleaseScene(scene);
+      rtcReleaseDevice(device);
+      return 0;
+    }
+    // Both queries over each set of rays, in turns: S seconds each a set, in ten rounds.
+    constexpr int kRounds = 10;
+    const Turns camera = inTurns(cameraRays, o.budget, kRounds, ours, theirs);
+    const Turns bounce = inTurns(bounceRays, o.budget, kRounds, ours, theirs);
+    std::printf("raylife Bvh::intersect: camera rays %.2f Mrays/s, bounce rays %.2f Mrays/s\n", camera.ours / 1e6,
+                bounce.ours / 1e6);
+    std::printf("Embree rtcIntersect1: camera rays %.2f Mrays/s, bounce rays %.2f Mrays/s\n", camera.theirs / 1e6,
+                bounce.theirs / 1e6);
+    std::printf("raylife / Embree: camera rays %.2f, bounce rays %.2f (the median of %d rounds timed in turns; ranges "
+                "%.2f-%.2f and %.2f-%.2f)\n",
+                camera.median(), bounce.median(), kRounds, camera.ratios.front(), camera.ratios.back(),
+                bounce.ratios.front(), bounce.ratios.back());
     // Agreement: the same hit or miss, and the same distance within float's precision of the mesh's size.
     std::size_t agree = 0, total = 0;
     for (const std::vector<Ray>* set : {&cameraRays, &bounceRays})
