@@ -637,9 +637,9 @@ TEST_CASE("with --time T a chapter with an image beside its render stops at abou
   // Chapters 9 and 10 render a second image beside the first; both come out of the one time budget: one render
   // loop renders the two side by side, as one film twice as wide, and stops at about T by its own clock (what the
   // summary line and --stats report, within 10 % of T). That the loop rendered both is counted, not timed: its
-  // camera rays are the whole double-width film's, width × height × spp. (The whole run's wall clock is no test
-  // of this: loading and writing are outside the budget, and on a loaded machine, with the rest of the suite
-  // running beside it, they once took 1.4 s.)
+  // camera rays are the whole double-width film's, width × height × the mean spp, and both halves of the image
+  // hold light. (The whole run's wall clock is no test of this: loading and writing are outside the budget, and on
+  // a loaded machine, with the rest of the suite running beside it, they once took 1.4 s.)
   for (const std::string& binary : {std::string(STEP09), std::string(STEP10)}) {
     const TempDir dir;
     const double budget = 2.0;
