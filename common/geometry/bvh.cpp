@@ -1002,9 +1002,9 @@ template <std::size_t N, class U> [[gnu::always_inline]] inline const U* assumeA
 
 #if RAYLIFE_HAS_AVX2 && !defined(RAYLIFE_REAL_IS_FLOAT)
 // Four floats (aligned to 16 bytes) to four doubles, for the eight-lane walk: one instruction, built for AVX.
-// (The same __builtin_convertvector in laneHits, whose code the baseline walk shares, was built as two halves of
-// two floats, the upper one copied through the stack and the two joined: 85 of the 1,150 instructions of a bounce
-// ray's query on chapter 10's model alone, by callgrind.)
+// (GCC 12 builds a __builtin_convertvector from four floats to four doubles as two halves of two floats, the upper
+// one copied through the stack and the two joined, in the AVX2 walk too, and even in a function of its own built
+// for AVX: 85 of the 1,150 instructions of a bounce ray's query on chapter 10's model alone, by callgrind.)
 RAYLIFE_AVX2 void widenEight(const float* p, RealLanes& v)
 {
   v = RealLanes(_mm256_cvtps_pd(_mm_load_ps(p)));
@@ -1070,8 +1070,9 @@ template <bool kEight, class T>
   const unsigned live = (1u << count) - 1;
   // Lane k's yes as bit k, and the lanes left, those not refused. (In the eight-lane walk one movemask of the
   // four doubles' lanes, built for AVX; elsewhere the lanes narrowed to four 32-bit ones for SSE's movemask. Taken
-  // lane by lane, the bits cost 2.7 % of a query's instructions on a million triangles, by callgrind; the narrowing,
-  // built outside AVX, five more instructions each time in the eight-lane walk.)
+  // lane by lane, the bits cost 2.7 % of a query's instructions on a million triangles, by callgrind; the narrowing
+  // costs five instructions more each time, as GCC 12 builds it, where AVX's movemask takes the four lanes as they
+  // are.)
   auto bits = [live](const auto& mask) {
 #if RAYLIFE_HAS_AVX2 && !defined(RAYLIFE_REAL_IS_FLOAT)
     if constexpr (kEight)
