@@ -205,6 +205,10 @@ int main(int argc, char** argv)
 #if RAYLIFE_EMBREE
   embree = o.embree;
 #endif
+  if (o.passes > 0 && o.check) {
+    std::fprintf(stderr, "mesh_bench: --passes and --check do not go together: --passes only runs the queries\n");
+    return 2;
+  }
   if (o.passSet.rfind("embree", 0) == 0 && !embree) {
     std::fprintf(stderr, "mesh_bench: --passes %d %s needs Embree: built with the embree preset, without --no-embree\n",
                  o.passes, o.passSet.c_str());
@@ -362,7 +366,7 @@ int main(int argc, char** argv)
     for (int p = 0; p < o.passes; ++p)
       for (const Ray& r : rays)
         query(r);
-    std::printf("%d passes of %zu %s rays (%zu hits)\n", o.passes, rays.size(), o.passSet.c_str(), sink);
+    std::printf("%d passes of %zu %s rays (%zu hits in all)\n", o.passes, rays.size(), o.passSet.c_str(), sink);
   };
   if (o.passSet == "camera" || o.passSet == "bounce") {
     passes(o.passSet == "camera" ? cameraRays : bounceRays, ours);
