@@ -593,6 +593,16 @@ TEST_CASE("Ctrl-C stops a render of one pass between tiles and writes the image 
   CHECK(lastRowBlack);
 }
 
+namespace {
+// The number under `key` in a --stats file's text (a test failure when it has none).
+double statsNumber(const std::string& stats, const std::string& key)
+{
+  std::smatch k;
+  REQUIRE(std::regex_search(stats, k, std::regex("\"" + key + "\": ([0-9.e+-]+)")));
+  return std::stod(k[1]);
+}
+} // namespace
+
 TEST_CASE("Ctrl-C in the middle of a batch of many samples reports what the pixels hold (issue 43)")
 {
   // A batch may be many samples (batches double, up to a quarter of a second): a Ctrl-C that cuts one leaves the
@@ -612,11 +622,7 @@ TEST_CASE("Ctrl-C in the middle of a batch of many samples reports what the pixe
                                                  R"(more in (\d+)% of the tiles)?\) -> out\.pfm\n$)")));
   const std::string stats = readFile(dir.path() / "s.json");
   INFO(stats);
-  auto number = [&](const std::string& key) {
-    std::smatch k;
-    REQUIRE(std::regex_search(stats, k, std::regex("\"" + key + "\": ([0-9.e+-]+)")));
-    return std::stod(k[1]);
-  };
+  auto number = [&stats](const std::string& key) { return statsNumber(stats, key); };
   const int spp = std::stoi(m[1]);
   CHECK(spp == std::stoi(m[2]));
   CHECK(number("spp") == spp);
@@ -648,11 +654,7 @@ TEST_CASE("with --time T a chapter with an image beside its render stops at abou
     REQUIRE(o.status == 0);
     const std::string stats = readFile(dir.path() / "s.json");
     INFO(stats);
-    auto number = [&](const std::string& key) {
-      std::smatch k;
-      REQUIRE(std::regex_search(stats, k, std::regex("\"" + key + "\": ([0-9.e+-]+)")));
-      return std::stod(k[1]);
-    };
+    auto number = [&stats](const std::string& key) { return statsNumber(stats, key); };
     const double seconds = number("seconds");
     CHECK(seconds >= 0.9 * budget);
     CHECK(seconds <= 1.1 * budget);
