@@ -1077,8 +1077,16 @@ template <bool kEight, class T>
   LaneHits out;
   // First what the signs decide: a ray that passes beside the triangle (edge functions of both signs), or meets its
   // plane behind the origin. Most packs stop here, the ray beside all four, before the division.
-  auto refused = (((e0 < 0) | (e1 < 0) | (e2 < 0)) & ((e0 > 0) | (e1 > 0) | (e2 > 0))) | (det == 0) |
-                 ((det < 0) & (tScaled >= 0)) | ((det > 0) & (tScaled <= 0));
+  // intersectTriangle asks (e0 < 0 || e1 < 0 || e2 < 0) && (e0 > 0 || …), then det == 0, then whether tScaled
+  // has det's sign (refused: det < 0 && tScaled ≥ 0, or det > 0 && tScaled ≤ 0). For numbers, not NaNs, these are
+  // the same questions as: the least e below 0 and the largest above 0; det 0; tScaled 0; tScaled's sign bit
+  // other than det's. Asked so, in fewer instructions: 19 fewer a bounce ray's query on chapter 10's model alone.
+  // (A NaN may be refused here or not; either way its t is a NaN, which the test of t's range below refuses, as the
+  // scalar test's does.)
+  using Bits = decltype(e0 < 0);
+  const RealLanes least01 = e0 < e1 ? e0 : e1, most01 = e0 > e1 ? e0 : e1;
+  const RealLanes least = least01 < e2 ? least01 : e2, most = most01 > e2 ? most01 : e2;
+  auto refused = ((least < 0) & (most > 0)) | (det == 0) | (tScaled == 0) | (((Bits)det ^ (Bits)tScaled) < 0);
   const unsigned live = (1u << count) - 1;
   // Lane k's yes as bit k, and the lanes left, those not refused. (In the eight-lane walk one movemask of the
   // four doubles' lanes, built for AVX; elsewhere the lanes narrowed to four 32-bit ones for SSE's movemask. Taken
@@ -1110,7 +1118,6 @@ template <bool kEight, class T>
   // magnitudes by clearing the sign bit, as std::fabs).
   // (In place, not in helper functions: a function that takes or returns an AVX vector would change the ABI of the
   // code built without AVX.)
-  using Bits = decltype(refused);
   const auto magnitude = Bits{} + std::numeric_limits<std::remove_cvref_t<decltype(refused[0])>>::max();
 #define RAYLIFE_ABS(v) ((RealLanes)((Bits)(v) & magnitude))
 #define RAYLIFE_MAX(p, q) ((p) < (q) ? (q) : (p))

@@ -308,6 +308,42 @@ TEST_CASE("the BVH over triangles and spheres finds exactly the brute-force hit 
   }
 }
 
+TEST_CASE("rays with a NaN or an infinity in them get the brute-force answer over triangles too")
+{
+  // Such a ray "hits" every box (see test_bvh.cpp), so it reaches every leaf, and its NaNs every lane of the
+  // triangles' test: whatever the lanes refuse early or late, they must end where the scalar test does.
+  Random random(31);
+  Mixed s;
+  s.spheres = uniformScene(random, 20);
+  s.add(jitteredSphere<Real>(random, glm::dvec3(0), 5, 10, 20, 0.8));
+  s.add(triangleSoup(random, 200, 10));
+  Mixed floats = s; // corners that are floats: packs of floats
+  for (Vec3& v : floats.vertices)
+    for (int axis = 0; axis < 3; ++axis) {
+      const volatile float rounded = float(v[axis]); // (as in the million rays' test above)
+      v[axis] = Real(rounded);
+    }
+  BvhBuildOptions four;
+  four.eightAtOnce = false;
+  for (const Mixed* scene : {&s, &floats}) {
+    const Bvh trees[2] = {Bvh(scene->spheres, scene->vertices, scene->triangles),
+                          Bvh(scene->spheres, scene->vertices, scene->triangles, four)};
+    for (int round = 0; round < 50; ++round)
+      for (const Ray& ray : nonFiniteRays(random, 12))
+        for (const Bvh& bvh : trees) {
+          INFO(describe(ray) << (bvh.eightAtOnce() ? ", eight boxes at a time" : ", four boxes at a time"));
+          const std::optional<Reference> expected = bruteForce(scene->spheres, scene->vertices, scene->triangles, ray);
+          const std::optional<BvhHit> got = bvh.intersect(ray);
+          REQUIRE(got.has_value() == expected.has_value());
+          if (expected) {
+            CHECK(got->primitive == expected->sphere);
+            CHECK(std::memcmp(&got->t, &expected->t, sizeof(Real)) == 0);
+          }
+          CHECK(bvh.occluded(ray) == expected.has_value());
+        }
+  }
+}
+
 TEST_CASE("a leaf of the BVH holds spheres or triangles, never both, and the tree counts both")
 {
   Random random(5);
