@@ -54,10 +54,10 @@ Case randomCase(std::uint64_t seed, std::size_t rayCount)
   Pcg32 rng(seed, 17);
   auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
   Case c;
-  const Real walls[6][4] = {{1e5 + 1, 40.8, 81.6, 1e5},  {-1e5 + 99, 40.8, 81.6, 1e5}, {50, 40.8, 1e5, 1e5},
+  const double walls[6][4] = {{1e5 + 1, 40.8, 81.6, 1e5},  {-1e5 + 99, 40.8, 81.6, 1e5}, {50, 40.8, 1e5, 1e5},
                             {50, 40.8, -1e5 + 170, 1e5}, {50, 1e5, 81.6, 1e5},         {50, -1e5 + 81.6, 81.6, 1e5}};
   for (const auto& w : walls)
-    c.spheres.push_back(Sphere{Vec3(w[0], w[1], w[2]), w[3], 0, Vec3(0)});
+    c.spheres.push_back(Sphere{Vec3(Real(w[0]), Real(w[1]), Real(w[2])), Real(w[3]), 0, Vec3(0)});
   for (int k = 0; k < 10; ++k)
     c.spheres.push_back(Sphere{Vec3(10 + 80 * u(), 5 + 70 * u(), 10 + 150 * u()), Real(0.5) + 20 * u(), 0, Vec3(0)});
   c.rays.resize(rayCount);
@@ -248,7 +248,7 @@ TEST_CASE("stream kernels: sphereLightDirections equals sampleSphereCone and its
       const Vec3 c(100 * u() - 50, 100 * u() - 50, 100 * u() - 50);
       const Real radius = i % 5 == 0 ? Real(1e-3) : Real(0.1) + 10 * u();
       // Near, far (a tiny cone), inside, and on the surface.
-      const Real distance = i % 7 == 0 ? radius * u() : i % 7 == 1 ? radius : radius * (1 + 1e4 * u() * u());
+      const Real distance = i % 7 == 0 ? radius * u() : i % 7 == 1 ? radius : radius * (1 + Real(1e4) * u() * u());
       const Vec3 p = c + distance * randomDirection(rng);
       px[i] = p.x, py[i] = p.y, pz[i] = p.z, cx[i] = c.x, cy[i] = c.y, cz[i] = c.z, r[i] = radius;
       u1[i] = i % 11 == 0 ? Real(0) : u(), u2[i] = u(), choice[i] = Real(0.25) + u() / 2;
