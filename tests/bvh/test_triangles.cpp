@@ -310,7 +310,7 @@ TEST_CASE("the BVH over triangles and spheres finds exactly the brute-force hit 
 
 TEST_CASE("rays with a NaN or an infinity in them get the brute-force answer over triangles too")
 {
-  // Such a ray "hits" every box (see test_bvh.cpp), so it reaches every leaf, and its NaNs every lane of the
+  // A ray with a NaN "hits" every box (see test_bvh.cpp), so it reaches every leaf, and its NaNs every lane of the
   // triangles' test: whatever the lanes refuse early or late, they must end where the scalar test does.
   Random random(31);
   Mixed s;

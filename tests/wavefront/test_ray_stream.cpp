@@ -55,7 +55,7 @@ Case randomCase(std::uint64_t seed, std::size_t rayCount)
   auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
   Case c;
   const double walls[6][4] = {{1e5 + 1, 40.8, 81.6, 1e5},  {-1e5 + 99, 40.8, 81.6, 1e5}, {50, 40.8, 1e5, 1e5},
-                            {50, 40.8, -1e5 + 170, 1e5}, {50, 1e5, 81.6, 1e5},         {50, -1e5 + 81.6, 81.6, 1e5}};
+                              {50, 40.8, -1e5 + 170, 1e5}, {50, 1e5, 81.6, 1e5},         {50, -1e5 + 81.6, 81.6, 1e5}};
   for (const auto& w : walls)
     c.spheres.push_back(Sphere{Vec3(Real(w[0]), Real(w[1]), Real(w[2])), Real(w[3]), 0, Vec3(0)});
   for (int k = 0; k < 10; ++k)
