@@ -368,6 +368,7 @@ public:
     options_.bins = std::clamp(options_.bins, 2, kMaxBins);
     options_.maxLeafSize = std::clamp(options_.maxLeafSize, 1, 255);
     options_.maxTriangleLeafSize = std::clamp(options_.maxTriangleLeafSize, 1, 255);
+    options_.packPricedBelowArea = std::clamp(options_.packPricedBelowArea, 0.0, 1.0); // (a NaN stays NaN: none)
   }
 
   std::vector<BvhNode> nodes;
@@ -380,6 +381,8 @@ public:
     const std::size_t nodeIndex = nodes.size();
     nodes.push_back(BvhNode{});
     depth = std::max(depth, level);
+    if (level == 1) // (before any subtree is handed to a thread)
+      packPricedArea_ = double(toBounds(info.lo, info.hi).surfaceArea()) / 2 * options_.packPricedBelowArea;
     for (int a = 0; a < 3; ++a) {
       nodes[nodeIndex].bounds[0][a] = info.lo[a];
       nodes[nodeIndex].bounds[1][a] = info.hi[a];
@@ -423,6 +426,7 @@ private:
   std::uint32_t buildInParallel(std::size_t begin, const Split& split, std::size_t end, int level)
   {
     Builder second(items_, spheres_, options_, threads_ - threads_ / 2);
+    second.packPricedArea_ = packPricedArea_; // (the root's, which its builder set)
     // (Its room reserved at once, as the root's is: grown by doubling, the copies left behind stayed in the
     // thread's heap after the build, 40 MB of a million triangles'.)
     second.nodes.reserve(2 * (end - split.mid) - 1);
@@ -592,8 +596,9 @@ private:
   //   C = C_trav + (A_L / A)·N_L·C_isect + (A_R / A)·N_R·C_isect,
   // against N·C_isect for keeping the node a leaf. The centres are sorted into a few bins per axis, and every
   // boundary between bins is priced; the cheapest wins.
-  // Triangles are tested four at a time, a pack at a time: in a big tree (BvhBuildOptions::packPricedFrom), N counts
-  // a node of triangles' packs of four, ⌈N/4⌉, so that the SAH makes leaves of full packs where it can.
+  // Triangles are tested four at a time, a pack at a time: in a big tree (BvhBuildOptions::packPricedFrom), and in a
+  // small one a node small against the root (packPricedBelowArea), N counts a node of triangles' packs of four,
+  // ⌈N/4⌉, so that the SAH makes leaves of full packs where it can.
   std::optional<Split> sah(std::size_t begin, std::size_t end, const ItemsInfo& info)
   {
     const std::size_t n = end - begin;
@@ -601,7 +606,7 @@ private:
     const int bins = options_.bins;
     const double nodeArea = double(toBounds(info.lo, info.hi).surfaceArea()) / 2; // (half, as the sweeps' areas are)
     const bool triangles = !info.anySphere;
-    const bool byPacks = triangles && packPriced_;
+    const bool byPacks = triangles && (packPriced_ || nodeArea < packPricedArea_);
     const Real leafCost = Real(byPacks ? (n + 3) / 4 : n) * costs.intersection;
     const std::size_t maxLeaf = std::size_t(triangles ? options_.maxTriangleLeafSize : options_.maxLeafSize);
 
@@ -719,6 +724,9 @@ private:
   BvhBuildOptions options_;
   int threads_;
   bool packPriced_; // the tree has BvhBuildOptions::packPricedFrom triangles or more
+  // Below this half surface area (as sah's nodeArea), a node of triangles is priced by its packs
+  // (BvhBuildOptions::packPricedBelowArea times the root's; set by the root's build).
+  double packPricedArea_ = 0;
   // sah's bins (the builder's, so as not to make them afresh at every node).
   Bins bins_;
 };

@@ -109,12 +109,19 @@ struct BvhBuildOptions {
   /// slower camera rays on a million triangles: mesh_bench, 0.60 against 0.75 of Embree's speed in one noisy run.)
   int maxTriangleLeafSize = 4;
   /// From this many triangles on, the SAH prices a leaf of triangles by its packs of four (⌈n/4⌉: a pack is tested
-  /// at once), below it by its triangles, ≥ 0. A big tree's time goes on cache misses, one a node and one a pack
-  /// whatever the pack holds, and leaves of full packs take half the bytes (a million triangles: 105 bytes a triangle
-  /// against 267, and faster rays). A small one stays in the caches, where the arithmetic decides and smaller leaves
-  /// win: priced by packs, chapter 6 ran 5–13 % slower in the Cornell box and on chapter 10's model (3,732
-  /// triangles), while on a 60,000-triangle blob mesh_bench's rays were a third faster priced by packs.
+  /// at once), below it by its triangles (but see packPricedBelowArea), ≥ 0. A big tree's time goes on cache misses,
+  /// one a node and one a pack whatever the pack holds, and leaves of full packs take half the bytes (a million
+  /// triangles: 105 bytes a triangle against 267, and faster rays); on a 60,000-triangle blob mesh_bench's rays were
+  /// a third faster priced by packs.
   int packPricedFrom = 1 << 14;
+  /// In a tree below packPricedFrom, a node of triangles whose box's surface area is below this fraction of the
+  /// root's is priced by its packs too, in [0, 1] (0: none is). Packs win where the triangles are small against the
+  /// scene, a model seen from outside; they lose on a room's walls, whose nodes span the scene: merged into packs,
+  /// the walls' boxes are the room's, and every ray from inside it tests them. Priced by packs in every node,
+  /// chapter 10's model alone ran its bounce rays at 0.88 of Embree 3's speed instead of 0.73, but the original
+  /// Cornell box its camera rays at 1.19 instead of 1.47 (mesh_bench); with this fraction, the model gets the first
+  /// and the Cornell box keeps its tree, node for node.
+  double packPricedBelowArea = 1.0 / 32;
   /// Test a node's eight boxes in one AVX2 instruction where the CPU has AVX2; false, or a CPU without it: four
   /// at a time (SSE). Either way the same hits and the same work, bit for bit; only the speed differs.
   bool eightAtOnce = true;

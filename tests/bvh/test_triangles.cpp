@@ -102,6 +102,11 @@ Agreement compare(const Mixed& s, std::size_t rays, std::uint64_t seed, Real ext
   BvhBuildOptions packedOptions;
   packedOptions.packPricedFrom = 0;
   const Bvh packed(s.spheres, s.vertices, s.triangles, packedOptions);
+  // And every leaf priced by its triangles (in a tree this small, no node priced by packs for being small).
+  BvhBuildOptions byTrianglesOptions;
+  byTrianglesOptions.packPricedFrom = 1 << 30;
+  byTrianglesOptions.packPricedBelowArea = 0;
+  const Bvh byTriangles(s.spheres, s.vertices, s.triangles, byTrianglesOptions);
   Random random(seed);
   Agreement a;
   for (std::size_t i = 0; i < rays; ++i) {
@@ -112,13 +117,14 @@ Agreement compare(const Mixed& s, std::size_t rays, std::uint64_t seed, Real ext
       return expected.has_value() == h.has_value() &&
              (!expected || (expected->sphere == h->primitive && std::memcmp(&expected->t, &h->t, sizeof(Real)) == 0));
     };
-    const bool same = agrees(got) && agrees(packed.intersect(ray));
+    const bool same = agrees(got) && agrees(packed.intersect(ray)) && agrees(byTriangles.intersect(ray));
     if (!same && a.first.empty())
       a.first = describe(ray) + ": brute force " +
                 (expected ? std::to_string(expected->sphere) + " at " + std::to_string(expected->t) : "miss") +
                 ", BVH " + (got ? std::to_string(got->primitive) + " at " + std::to_string(got->t) : "miss");
     a.closest += !same;
-    a.anyHit += bvh.occluded(ray) != expected.has_value() || packed.occluded(ray) != expected.has_value();
+    a.anyHit += bvh.occluded(ray) != expected.has_value() || packed.occluded(ray) != expected.has_value() ||
+                byTriangles.occluded(ray) != expected.has_value();
     const BvhTracedHit byFour = four.intersectWithWork(ray), byEight = bvh.intersectWithWork(ray);
     a.boxTests += byFour.hit.has_value() != byEight.hit.has_value() ||
                   (byFour.hit && byFour.hit->primitive != byEight.hit->primitive) ||
@@ -362,6 +368,46 @@ TEST_CASE("a leaf of the BVH holds spheres or triangles, never both, and the tre
   CHECK(trianglesInLeaves == s.triangles.size());
 }
 
+TEST_CASE("in a small tree, nodes small against the scene are priced by their packs, a room's walls by triangles")
+{
+  BvhBuildOptions byArea, byTriangles, byPacks;
+  byTriangles.packPricedBelowArea = 0;
+  byPacks.packPricedFrom = 0;
+  // A model alone, seen from outside: below the triangles' threshold, but nearly all of its nodes are small against
+  // the whole, so its leaves fill their packs, as a big tree's do.
+  Random random(12);
+  Mixed model;
+  model.add(jitteredSphere<Real>(random, glm::dvec3(0, 0, 0), 1, 30, 60, 0.7));
+  REQUIRE(model.triangles.size() < std::size_t(byArea.packPricedFrom));
+  const Bvh area(model.spheres, model.vertices, model.triangles, byArea);
+  const Bvh triangles(model.spheres, model.vertices, model.triangles, byTriangles);
+  const Bvh packs(model.spheres, model.vertices, model.triangles, byPacks);
+  INFO("wide nodes: " << area.wideNodes().size() << " (by packs where small), " << triangles.wideNodes().size()
+                      << " (by triangles), " << packs.wideNodes().size() << " (by packs)");
+  CHECK(area.wideNodes().size() < triangles.wideNodes().size() * 2 / 3);
+  CHECK(area.wideNodes().size() < packs.wideNodes().size() * 11 / 10);
+  CHECK(area.memoryBytes() < triangles.memoryBytes());
+
+  // A room's six walls, two triangles each: every node spans a good part of the room (a wall is a third of its
+  // surface), so the tree is the one priced by triangles, node for node.
+  Mixed room;
+  room.vertices = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 1, 0), Vec3(0, 1, 0),
+                   Vec3(0, 0, 1), Vec3(1, 0, 1), Vec3(1, 1, 1), Vec3(0, 1, 1)};
+  const std::uint32_t quads[6][4] = {{0, 1, 2, 3}, {4, 5, 6, 7}, {0, 1, 5, 4}, {3, 2, 6, 7}, {0, 3, 7, 4}, {1, 2, 6, 5}};
+  for (const auto& q : quads) {
+    room.triangles.push_back(Triangle{{q[0], q[1], q[2]}, 0, 0});
+    room.triangles.push_back(Triangle{{q[0], q[2], q[3]}, 0, 0});
+  }
+  const Bvh roomByArea(room.spheres, room.vertices, room.triangles, byArea);
+  const Bvh roomByTriangles(room.spheres, room.vertices, room.triangles, byTriangles);
+  const Bvh roomByPacks(room.spheres, room.vertices, room.triangles, byPacks);
+  REQUIRE(roomByArea.wideNodes().size() == roomByTriangles.wideNodes().size());
+  CHECK(std::memcmp(roomByArea.wideNodes().data(), roomByTriangles.wideNodes().data(),
+                    roomByArea.wideNodes().size() * sizeof(BvhWideNode)) == 0);
+  // (Priced by packs, the walls go into three packs whose boxes are the room's: a different tree.)
+  CHECK(roomByPacks.memoryBytes() != roomByTriangles.memoryBytes());
+}
+
 TEST_CASE("the scene's flat list and its tree give the same hits over triangles")
 {
   // The same geometry in a scene below kFlatListMaxPrimitives (a flat loop) and, with far-away filler added after
@@ -493,13 +539,15 @@ TEST_CASE("the build on any number of threads gives the one-thread tree, node fo
   s.spheres = clusteredScene(random, 3000);
   s.add(jitteredSphere<Real>(random, glm::dvec3(0, 2, 0), 1.5, 100, 200, 0.7)); // some 40,000 triangles
   s.add(triangleSoup(random, 5000, 11));
-  // Leaves priced by their packs (as a big tree's are) and by their triangles.
-  for (const int packPricedFrom : {0, 1 << 30}) {
-    INFO("packPricedFrom " << packPricedFrom);
+  // Leaves priced by their packs (as a big tree's are), by their triangles, and by their packs in small nodes only.
+  for (const auto& [packPricedFrom, packPricedBelowArea] :
+       {std::pair{0, 0.0}, std::pair{1 << 30, 0.0}, std::pair{1 << 30, BvhBuildOptions{}.packPricedBelowArea}}) {
+    INFO("packPricedFrom " << packPricedFrom << ", packPricedBelowArea " << packPricedBelowArea);
     BvhBuildOptions options;
     options.keepBinaryTree = true;
     options.buildThreads = 1;
     options.packPricedFrom = packPricedFrom;
+    options.packPricedBelowArea = packPricedBelowArea;
     const Bvh serial(s.spheres, s.vertices, s.triangles, options);
     REQUIRE(serial.nodes().size() > 10000);
     for (int threads : {2, 3, 8}) {
