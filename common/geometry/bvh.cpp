@@ -819,7 +819,9 @@ float floatAbove(Real x)
 // ray meets first (lo for a positive direction, hi for a negative one) and the row holding the other, then the
 // origin and 1/d as entries and as exits use them, in float, one copy per lane of V (Float4 or Float8).
 template <class V> struct BoxRay {
-  std::uint32_t nearRow[4], farRow[4]; // offsets into BvhWideNode::bounds (x, y, z, and one unused)
+  // Offsets in bytes into BvhWideNode::bounds (x, y, z, and one unused). (In floats, they were multiplied by four
+  // at every query's start: six instructions.)
+  std::uint32_t nearRow[4], farRow[4];
   V originNear[3], originFar[3];
   V invNear[3], invFar[3];
   V tmin, tmax; // the interval, rounded outwards; tmax shrinks to the nearest hit found so far
@@ -925,7 +927,8 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
   const Float4 originFar = (Float4)((negative & (Mask4)originAbove) | (~negative & (Mask4)originBelow));
   // The rows: axis a's lo row is row a, its hi row a + 3. (For the three axes at once, in lanes: one by one, with
   // the shifts and masks of each axis's sign, they were 45 instructions of a query.)
-  const Mask4 loRow = {0, int(kRow), int(2 * kRow), 0}, flipRows = Mask4{} + int(3 * kRow);
+  constexpr int kRowBytes = int(kRow * sizeof(float));
+  const Mask4 loRow = {0, kRowBytes, 2 * kRowBytes, 0}, flipRows = Mask4{} + 3 * kRowBytes;
   const Mask4 nearRows = loRow + (negative & flipRows), farRows = loRow + (~negative & flipRows);
   std::memcpy(r.nearRow, &nearRows, sizeof r.nearRow);
   std::memcpy(r.farRow, &farRows, sizeof r.farRow);
@@ -955,8 +958,8 @@ unsigned hitsBoxes(const BvhWideNode& node, const BoxRay<V>& r, float (&tEnter)[
     V enter = r.tmin, exit = r.tmax;
     for (int a = 0; a < 3; ++a) {
       V faceNear, faceFar;
-      std::memcpy(&faceNear, node.bounds + r.nearRow[a] + k, sizeof faceNear);
-      std::memcpy(&faceFar, node.bounds + r.farRow[a] + k, sizeof faceFar);
+      std::memcpy(&faceNear, reinterpret_cast<const char*>(node.bounds + k) + r.nearRow[a], sizeof faceNear);
+      std::memcpy(&faceFar, reinterpret_cast<const char*>(node.bounds + k) + r.farRow[a], sizeof faceFar);
       const V tNear = (faceNear - r.originNear[a]) * r.invNear[a];
       const V tFar = (faceFar - r.originFar[a]) * r.invFar[a];
       enter = tNear > enter ? tNear : enter;
@@ -1839,8 +1842,8 @@ unsigned hitsBoxesPacket(const BvhWideNode& node, const PacketBoxRay<V>& r, floa
     V enter = r.tmin, exit = r.tmax;
     for (int a = 0; a < 3; ++a) {
       V faceNear, faceFar;
-      std::memcpy(&faceNear, node.bounds + r.nearRow[a] + k, sizeof faceNear);
-      std::memcpy(&faceFar, node.bounds + r.farRow[a] + k, sizeof faceFar);
+      std::memcpy(&faceNear, reinterpret_cast<const char*>(node.bounds + k) + r.nearRow[a], sizeof faceNear);
+      std::memcpy(&faceFar, reinterpret_cast<const char*>(node.bounds + k) + r.farRow[a], sizeof faceFar);
       // (The smallest and largest of four, without a function that returns a V, as simd.h asks.)
       const V n0 = faceNear - r.originNear[0][a], n1 = faceNear - r.originNear[1][a];
       const V e00 = n0 * r.invNear[0][a], e01 = n0 * r.invNear[1][a], e10 = n1 * r.invNear[0][a],
