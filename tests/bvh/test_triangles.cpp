@@ -404,7 +404,7 @@ TEST_CASE("in a small tree, nodes small against the scene are priced by their pa
   REQUIRE(roomByArea.wideNodes().size() == roomByTriangles.wideNodes().size());
   CHECK(std::memcmp(roomByArea.wideNodes().data(), roomByTriangles.wideNodes().data(),
                     roomByArea.wideNodes().size() * sizeof(BvhWideNode)) == 0);
-  // (Priced by packs, the walls go into three packs whose boxes are the room's: a different tree.)
+  // (Priced by packs in every node, the walls are merged into fuller leaves: a different tree.)
   CHECK(roomByPacks.memoryBytes() != roomByTriangles.memoryBytes());
 }
 
