@@ -257,6 +257,8 @@ struct ItemsInfo {
     anySphere |= o.anySphere;
     anyTriangle |= o.anyTriangle;
   }
+  // Half the surface area of the items' box, as the SAH's sweeps measure their sides.
+  double halfArea() const { return double(toBounds(lo, hi).surfaceArea()) / 2; }
 };
 
 // Items [begin, end) added up, in one pass (min and max: the same whatever the order, so on any number of threads).
@@ -382,7 +384,7 @@ public:
     nodes.push_back(BvhNode{});
     depth = std::max(depth, level);
     if (level == 1) // (before any subtree is handed to a thread)
-      packPricedArea_ = double(toBounds(info.lo, info.hi).surfaceArea()) / 2 * options_.packPricedBelowArea;
+      packPricedArea_ = info.halfArea() * options_.packPricedBelowArea;
     for (int a = 0; a < 3; ++a) {
       nodes[nodeIndex].bounds[0][a] = info.lo[a];
       nodes[nodeIndex].bounds[1][a] = info.hi[a];
@@ -604,7 +606,7 @@ private:
     const std::size_t n = end - begin;
     const BvhCosts costs;
     const int bins = options_.bins;
-    const double nodeArea = double(toBounds(info.lo, info.hi).surfaceArea()) / 2; // (half, as the sweeps' areas are)
+    const double nodeArea = info.halfArea();
     const bool triangles = !info.anySphere;
     const bool byPacks = triangles && (packPriced_ || nodeArea < packPricedArea_);
     const Real leafCost = Real(byPacks ? (n + 3) / 4 : n) * costs.intersection;
@@ -724,7 +726,7 @@ private:
   BvhBuildOptions options_;
   int threads_;
   bool packPriced_; // the tree has BvhBuildOptions::packPricedFrom triangles or more
-  // Below this half surface area (as sah's nodeArea), a node of triangles is priced by its packs
+  // Below this half surface area (ItemsInfo::halfArea), a node of triangles is priced by its packs
   // (BvhBuildOptions::packPricedBelowArea times the root's; set by the root's build).
   double packPricedArea_ = 0;
   // sah's bins (the builder's, so as not to make them afresh at every node).
@@ -832,6 +834,12 @@ template <class V> struct BoxRay {
 // bounce ray's query spent 127 instructions on its broadcasts instead of 31.)
 RAYLIFE_AVX2 void fillEight(Float8& v, float x) { v = Float8(_mm256_set1_ps(x)); }
 #endif
+
+// The lanes of row `rowBytes` (a BoxRay's nearRow or farRow) of a node's bounds, from child k on.
+template <class V> void loadRow(const BvhWideNode& node, int k, std::uint32_t rowBytes, V& v)
+{
+  std::memcpy(&v, reinterpret_cast<const char*>(node.bounds + k) + rowBytes, sizeof v);
+}
 
 // Every lane of v set to x. (x − 0 is x for every float, −0 included; the scalar is broadcast to the lanes. Written
 // without a function that returns a V, as simd.h asks.)
@@ -958,8 +966,8 @@ unsigned hitsBoxes(const BvhWideNode& node, const BoxRay<V>& r, float (&tEnter)[
     V enter = r.tmin, exit = r.tmax;
     for (int a = 0; a < 3; ++a) {
       V faceNear, faceFar;
-      std::memcpy(&faceNear, reinterpret_cast<const char*>(node.bounds + k) + r.nearRow[a], sizeof faceNear);
-      std::memcpy(&faceFar, reinterpret_cast<const char*>(node.bounds + k) + r.farRow[a], sizeof faceFar);
+      loadRow(node, k, r.nearRow[a], faceNear);
+      loadRow(node, k, r.farRow[a], faceFar);
       const V tNear = (faceNear - r.originNear[a]) * r.invNear[a];
       const V tFar = (faceFar - r.originFar[a]) * r.invFar[a];
       enter = tNear > enter ? tNear : enter;
@@ -1842,8 +1850,8 @@ unsigned hitsBoxesPacket(const BvhWideNode& node, const PacketBoxRay<V>& r, floa
     V enter = r.tmin, exit = r.tmax;
     for (int a = 0; a < 3; ++a) {
       V faceNear, faceFar;
-      std::memcpy(&faceNear, reinterpret_cast<const char*>(node.bounds + k) + r.nearRow[a], sizeof faceNear);
-      std::memcpy(&faceFar, reinterpret_cast<const char*>(node.bounds + k) + r.farRow[a], sizeof faceFar);
+      loadRow(node, k, r.nearRow[a], faceNear);
+      loadRow(node, k, r.farRow[a], faceFar);
       // (The smallest and largest of four, without a function that returns a V, as simd.h asks.)
       const V n0 = faceNear - r.originNear[0][a], n1 = faceNear - r.originNear[1][a];
       const V e00 = n0 * r.invNear[0][a], e01 = n0 * r.invNear[1][a], e10 = n1 * r.invNear[0][a],
