@@ -895,15 +895,17 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
     // with them, 4.7 with this. The conversions to float too, four at once (the same rounding as one at a time):
     // a lane at a time, they and the choices were some 40 instructions of a query's setup.
     const Double4 one = {1, 1, 1, 1}, most = {kFloatMax, kFloatMax, kFloatMax, kFloatMax}, least = -most;
-    // (Lane 3 is unused. It holds z again, not 0: for a 0 there GCC may clear the lane with a register-to-register
-    // vmovq in the encoding valgrind 3.19 cannot decode, and callgrind and cachegrind stop at the first query.)
-    const Double4 o = {ray.origin.x, ray.origin.y, ray.origin.z, ray.origin.z};
+    // Lane 3 of the origin rounded down is tmin rounded down (floatBelow), of the origin rounded up, tmax rounded
+    // up (floatAbove): the same operations, in lanes that were unused. (One at a time, the two were some 20
+    // instructions and two branches of a query.)
+    const Double4 low = {ray.origin.x, ray.origin.y, ray.origin.z, ray.tmin};
+    const Double4 high = {ray.origin.x, ray.origin.y, ray.origin.z, tmax};
     const Double4 d = {ray.direction.x, ray.direction.y, ray.direction.z, 1};
     const Double4 inv = one / d;
-    const Double4 magnitude = (Double4)((Mask64x4)o & std::numeric_limits<std::int64_t>::max());
-    Double4 below = o - magnitude * 0x1p-23 - 0x1p-149;
+    constexpr std::int64_t kMagnitude = std::numeric_limits<std::int64_t>::max(); // all but the sign bit
+    Double4 below = low - (Double4)((Mask64x4)low & kMagnitude) * 0x1p-23 - 0x1p-149;
     below = most < below ? most : below; // std::min(below, kFloatMax)
-    Double4 above = o + magnitude * 0x1p-23 + 0x1p-149;
+    Double4 above = high + (Double4)((Mask64x4)high & kMagnitude) * 0x1p-23 + 0x1p-149;
     above = above < least ? least : above; // std::max(above, −kFloatMax)
     Double4 near = inv * (1 - kWiden);
     near = near < least ? least : near; // std::clamp(near, −kFloatMax, kFloatMax)
@@ -949,8 +951,13 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
     fill(r.invNear[a], invNear[a]);
     fill(r.invFar[a], invFar[a]);
   }
-  fill(r.tmin, floatBelow(ray.tmin));
-  fill(r.tmax, floatAbove(tmax));
+  if constexpr (std::is_same_v<Real, double>) {
+    fill(r.tmin, originBelow[3]);
+    fill(r.tmax, originAbove[3]);
+  } else {
+    fill(r.tmin, floatBelow(ray.tmin));
+    fill(r.tmax, floatAbove(tmax));
+  }
 }
 
 // The children's boxes of `node` against the ray within [tmin, tmax], one box to a lane of V (two steps of four
@@ -1012,20 +1019,28 @@ using TriangleRay = BvhTriangleRay;
 // coherent camera rays in the Cornell boxes ran at 1.19 to 1.36 of Embree's speed where they run at 1.39 to 1.49.)
 void prepareTriangleRay(const Ray& ray, TriangleRay& r)
 {
+  // (Written out for each choice of z, so that the axes are constants: indexed by a variable, glm's vector is a
+  // switch, some 18 instructions of a bounce ray's query on chapter 10's model alone, by callgrind.)
+  auto permuted = [&ray, &r](int kx, int ky, int kz) __attribute__((always_inline)) {
+    r.kx = std::size_t(kx) * kFloatRow;
+    r.ky = std::size_t(ky) * kFloatRow;
+    r.kz = std::size_t(kz) * kFloatRow;
+    // (Each in every lane as x − 0, which is x for −0 too.)
+    r.sx = -ray.direction[kx] / ray.direction[kz] - RealLanes{};
+    r.sy = -ray.direction[ky] / ray.direction[kz] - RealLanes{};
+    r.sz = 1 / ray.direction[kz] - RealLanes{};
+    r.ox = ray.origin[kx] - RealLanes{};
+    r.oy = ray.origin[ky] - RealLanes{};
+    r.oz = ray.origin[kz] - RealLanes{};
+  };
   const Real ax = std::abs(ray.direction.x), ay = std::abs(ray.direction.y), az = std::abs(ray.direction.z);
-  const int kz = ax > ay ? (ax > az ? 0 : 2) : (ay > az ? 1 : 2);
-  const int kx = kz == 2 ? 0 : kz + 1;
-  const int ky = kx == 2 ? 0 : kx + 1;
-  r.kx = std::size_t(kx) * kFloatRow;
-  r.ky = std::size_t(ky) * kFloatRow;
-  r.kz = std::size_t(kz) * kFloatRow;
-  // (Each in every lane as x − 0, which is x for −0 too.)
-  r.sx = -ray.direction[kx] / ray.direction[kz] - RealLanes{};
-  r.sy = -ray.direction[ky] / ray.direction[kz] - RealLanes{};
-  r.sz = 1 / ray.direction[kz] - RealLanes{};
-  r.ox = ray.origin[kx] - RealLanes{};
-  r.oy = ray.origin[ky] - RealLanes{};
-  r.oz = ray.origin[kz] - RealLanes{};
+  // z is the axis of the largest magnitude (on a tie, the later axis), x and y the two after it in turn.
+  if (ax > ay && ax > az)
+    permuted(1, 2, 0);
+  else if (!(ax > ay) && ay > az)
+    permuted(2, 0, 1);
+  else
+    permuted(0, 1, 2);
 }
 
 // What the lanes of a pack found (laneHits): the lanes whose triangle the ray hits, at t no farther than the nearest
