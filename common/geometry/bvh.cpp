@@ -897,7 +897,8 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
     const Double4 one = {1, 1, 1, 1}, most = {kFloatMax, kFloatMax, kFloatMax, kFloatMax}, least = -most;
     // Lane 3 of the origin rounded down is tmin rounded down (floatBelow), of the origin rounded up, tmax rounded
     // up (floatAbove): the same operations, in lanes that were unused. (One at a time, the two were some 20
-    // instructions and two branches of a query.)
+    // instructions and two branches of a query.) No lane holds a constant 0: for one, GCC may clear the lane with a
+    // register-to-register vmovq in the encoding valgrind 3.19 cannot decode, and callgrind stops at the first query.
     const Double4 low = {ray.origin.x, ray.origin.y, ray.origin.z, ray.tmin};
     const Double4 high = {ray.origin.x, ray.origin.y, ray.origin.z, tmax};
     const Double4 d = {ray.direction.x, ray.direction.y, ray.direction.z, 1};
