@@ -882,8 +882,9 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
   constexpr Real kWiden = kBoxMargin<Real> + Real(gamma<float>(8));
   constexpr Real kFloatMax = Real(std::numeric_limits<float>::max());
   constexpr std::size_t kRow = BvhWideNode::kWidth;
-  // Per axis, in the lanes of four floats (x, y, z and one unused): the origin rounded down and up, 1/d scaled for
-  // entries and exits, and whether d is negative.
+  // Per axis, in the lanes of four floats (x, y, z, and lane 3): the origin rounded down and up, 1/d scaled for
+  // entries and exits, and whether d is negative. Lane 3 of the origin rounded down holds tmin rounded down, of the
+  // origin rounded up, tmax rounded up; the other lanes 3 are unused.
   Float4 originBelow, originAbove, invNear, invFar;
   Mask4 negative;
   if constexpr (std::is_same_v<Real, double>) {
@@ -895,10 +896,10 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
     // with them, 4.7 with this. The conversions to float too, four at once (the same rounding as one at a time):
     // a lane at a time, they and the choices were some 40 instructions of a query's setup.
     const Double4 one = {1, 1, 1, 1}, most = {kFloatMax, kFloatMax, kFloatMax, kFloatMax}, least = -most;
-    // Lane 3 of the origin rounded down is tmin rounded down (floatBelow), of the origin rounded up, tmax rounded
-    // up (floatAbove): the same operations, in lanes that were unused. (One at a time, the two were some 20
-    // instructions and two branches of a query.) No lane holds a constant 0: for one, GCC may clear the lane with a
-    // register-to-register vmovq in the encoding valgrind 3.19 cannot decode, and callgrind stops at the first query.
+    // tmin and tmax in lane 3, rounded by floatBelow's and floatAbove's operations. (One at a time, the two were
+    // some 20 instructions and two branches of a query.) No lane holds a constant 0: for one, GCC may clear the
+    // lane with a register-to-register vmovq in the encoding valgrind 3.19 cannot decode, and callgrind stops at the
+    // first query.
     const Double4 low = {ray.origin.x, ray.origin.y, ray.origin.z, ray.tmin};
     const Double4 high = {ray.origin.x, ray.origin.y, ray.origin.z, tmax};
     const Double4 d = {ray.direction.x, ray.direction.y, ray.direction.z, 1};
@@ -929,7 +930,9 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
       invFar[a] = float(inv * (1 + kWiden));
       negative[a] = std::signbit(inv) ? -1 : 0;
     }
-    originBelow[3] = originAbove[3] = invNear[3] = invFar[3] = 1;
+    originBelow[3] = floatBelow(ray.tmin);
+    originAbove[3] = floatAbove(tmax);
+    invNear[3] = invFar[3] = 1;
     negative[3] = 0;
   }
   // A positive direction meets lo first: its entry (lo − o)/d is early when o is rounded up, its exit (hi − o)/d
@@ -952,13 +955,8 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
     fill(r.invNear[a], invNear[a]);
     fill(r.invFar[a], invFar[a]);
   }
-  if constexpr (std::is_same_v<Real, double>) {
-    fill(r.tmin, originBelow[3]);
-    fill(r.tmax, originAbove[3]);
-  } else {
-    fill(r.tmin, floatBelow(ray.tmin));
-    fill(r.tmax, floatAbove(tmax));
-  }
+  fill(r.tmin, originBelow[3]);
+  fill(r.tmax, originAbove[3]);
 }
 
 // The children's boxes of `node` against the ray within [tmin, tmax], one box to a lane of V (two steps of four
