@@ -5,7 +5,7 @@
 // chapter uses it.
 //
 // usage: mesh_bench MESH.ply|MESH.obj|SCENE.json [--size WxH] [--seconds S] [--seed N] [--build-rounds R]
-//                   [--no-embree] [--check] [--passes N camera|bounce|embree-camera|embree-bounce]
+//                   [--no-embree] [--embree-isa ISA] [--check] [--passes N camera|bounce|embree-camera|embree-bounce]
 //   Rays: a camera looking at the mesh from outside its bounding sphere, one ray through each pixel (W×H, default
 //   512x512), and from every camera hit one ray in a cosine-distributed direction about the surface's normal (the
 //   rays a diffuse bounce makes). A scene: its triangles (every mesh, placed as the scene places it; its spheres
@@ -14,6 +14,10 @@
 //   seconds each, and the ratio is the median of the rounds' ratios (the Mrays/s printed are each one's best round).
 //   The builds are timed again on one thread and on every core, best of R rounds (default 2), raylife's and
 //   Embree's each on its best thread count, and their ratio printed: the queries run on one thread, a build may not.
+//   --embree-isa ISA: the widest instruction set Embree's kernels may use (sse2, sse4.2, avx, avx2 or avx512; its
+//   max_isa), where by default Embree takes the widest the CPU has. Its widest is not always its fastest: on an AMD
+//   Zen 4, whose AVX-512 runs in halves of 256 bits, Embree's AVX2 kernels trace these rays faster than its AVX-512
+//   ones, so a fair yardstick there is `--embree-isa avx2`. The line "Embree's kernels" says which set they use.
 //   --check: exit 1 if raylife and Embree disagree (hit, or distance) on more than 0.1 % of the rays.
 //   --passes N SET: instead of the timings, N passes of one set of rays through one of the two (raylife's by
 //   default, Embree's for embree-…), then exit: a fixed amount of work for a profiler. The difference between two
@@ -145,6 +149,7 @@ struct Options {
   std::uint64_t seed = 1;
   int buildRounds = 2; // each build timed this many times on one thread and on every core, the best kept
   bool embree = true;
+  std::string embreeIsa; // --embree-isa: Embree's max_isa; empty: Embree's own choice, the widest the CPU has
   bool check = false; // exit 1 when raylife and Embree disagree on more than 0.1 % of the rays
   // --passes N SET: only N passes of one query set (camera or bounce, raylife's; embree-camera or embree-bounce),
   // untimed, then exit: a fixed amount of work for a profiler. 0: off.
@@ -181,6 +186,15 @@ bool parse(int argc, char** argv, Options& o)
       o.check = true;
     } else if (arg == "--no-embree") {
       o.embree = false;
+    } else if (arg == "--embree-isa" && i + 1 < argc) {
+      // (Embree takes a name it does not know as SSE without a word: only its own names get through.)
+      o.embreeIsa = argv[++i];
+      if (o.embreeIsa != "sse2" && o.embreeIsa != "sse4.2" && o.embreeIsa != "avx" && o.embreeIsa != "avx2" &&
+          o.embreeIsa != "avx512") {
+        std::fprintf(stderr, "mesh_bench: --embree-isa %s: not one of Embree's names sse2, sse4.2, avx, avx2, avx512\n",
+                     o.embreeIsa.c_str());
+        return false;
+      }
     } else if (!arg.empty() && arg[0] != '-' && o.mesh.empty()) {
       o.mesh = arg;
     } else {
@@ -197,8 +211,8 @@ int main(int argc, char** argv)
   Options o;
   if (!parse(argc, argv, o)) {
     std::fprintf(stderr, "usage: mesh_bench MESH.ply|MESH.obj|SCENE.json [--size WxH] [--seconds S] [--seed N] "
-                         "[--build-rounds R] [--no-embree] [--check] [--passes N camera|bounce|embree-camera|"
-                         "embree-bounce]\n");
+                         "[--build-rounds R] [--no-embree] [--embree-isa sse2|sse4.2|avx|avx2|avx512] [--check] "
+                         "[--passes N camera|bounce|embree-camera|embree-bounce]\n");
     return 2;
   }
   bool embree = false; // Embree's queries measured too
@@ -207,6 +221,11 @@ int main(int argc, char** argv)
 #endif
   if (o.passes > 0 && o.check) {
     std::fprintf(stderr, "mesh_bench: --passes and --check do not go together: --passes only runs the queries\n");
+    return 2;
+  }
+  if (!o.embreeIsa.empty() && !embree) {
+    std::fprintf(stderr, "mesh_bench: --embree-isa %s needs Embree: built with the embree preset, without --no-embree\n",
+                 o.embreeIsa.c_str());
     return 2;
   }
   if (o.passSet.rfind("embree", 0) == 0 && !embree) {
@@ -410,8 +429,10 @@ int main(int argc, char** argv)
     RTCDevice device = nullptr;
     RTCScene scene = nullptr;
     for (int k = 1; k >= 0; --k) {
-      const std::string threads = "threads=" + std::to_string(k == 0 ? 1 : cores);
-      device = rtcNewDevice(threads.c_str());
+      std::string config = "threads=" + std::to_string(k == 0 ? 1 : cores);
+      if (!o.embreeIsa.empty())
+        config += ",max_isa=" + o.embreeIsa; // (max_isa, not isa: never wider than the CPU has)
+      device = rtcNewDevice(config.c_str());
       for (int round = 0; round < o.buildRounds; ++round) {
         RTCScene made = makeScene(device);
         const auto start = Clock::now();
@@ -428,6 +449,13 @@ int main(int argc, char** argv)
         rtcReleaseDevice(device);
     }
     const int theirBest = theirBuild[1] < theirBuild[0] ? 1 : 0;
+    // Embree 3 names no instruction set, but its native packets say which kernels it took: sixteen-ray packets are
+    // native in its AVX-512 kernels only, eight-ray ones in its AVX and AVX2 kernels.
+    const char* kernels = rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) ? "AVX-512"
+                          : rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) ? "AVX or AVX2"
+                                                                                                    : "SSE";
+    std::printf("Embree's kernels: %s (%s)\n", kernels,
+                o.embreeIsa.empty() ? "its own choice for this CPU" : ("at most " + o.embreeIsa + ", as asked").c_str());
     std::printf("Embree BVH, default quality, best of %d: %.3f s on 1 thread (CPU %.3f s), %.3f s on %d (CPU %.3f s)\n",
                 o.buildRounds, theirBuild[0], theirCpu[0], theirBuild[1], cores, theirCpu[1]);
     std::printf("build, each on its best thread count: raylife %.3f s (%d thread%s) / Embree %.3f s (%d thread%s) = "
