@@ -140,6 +140,17 @@ Image readPfm(const std::string& path)
   if (width <= 0 || height <= 0 || width * height > (1L << 28) || scale == 0 || !std::isfinite(scale))
     throw ImageIoError(path + ": bad PFM header (size " + std::to_string(width) + "x" + std::to_string(height) + ")");
   const bool swap = scale > 0; // positive scale: big-endian data
+  // The pixels' bytes, counted before the image is allocated: a short file that claims 16384x16384 pixels would
+  // otherwise cost 3 GiB before its end was found.
+  const std::streamoff start = in.tellg();
+  in.seekg(0, std::ios::end);
+  const std::streamoff have = in.tellg() - start;
+  in.seekg(start);
+  const long long need = (long long)width * height * channels * (long long)sizeof(float);
+  if (start < 0 || !in || have < need)
+    throw ImageIoError(path + ": the PFM file is truncated (" + std::to_string(width) + "x" + std::to_string(height) +
+                       " pixels need " + std::to_string(need) + " bytes after the header, and it has " +
+                       std::to_string(std::max<std::streamoff>(have, 0)) + ")");
   Image image{int(width), int(height)};
   std::vector<float> row(std::size_t(width) * std::size_t(channels));
   for (long y = height - 1; y >= 0; --y) {

@@ -133,7 +133,14 @@ std::string stbReason()
   if ((long long)w * h > kMaxTexels)
     fail("the image is " + std::to_string(w) + "x" + std::to_string(h) + " texels, more than the " +
          std::to_string(kMaxTexels) + " raylife reads");
-  std::vector<float> rgb(std::size_t(w) * std::size_t(h) * 3);
+  // A file too short for the texels its header claims, refused before anything is allocated for them. (A PNG header
+  // of 25 bytes that claimed 16384x16384 texels cost 3 GiB and 13 s before stb_image found it cut short: found by
+  // fuzzing.) No file of these formats packs more than kMaxTexelsPerByte texels into a byte.
+  if ((long long)w * h > kMaxTexelsPerByte * (long long)bytes.size())
+    fail("its header claims " + std::to_string(w) + "x" + std::to_string(h) + " texels, more than a file of " +
+         std::to_string(bytes.size()) + " bytes can hold: the file is truncated or malformed");
+  // (The floats are allocated once stb_image has decoded the texels, not before: a file it refuses costs no more.)
+  std::vector<float> rgb;
   if (stbi_is_hdr_from_memory(data, length)) {
     if (radianceEndsEarly(bytes, w, h))
       fail("its texels end early: the file is truncated (a " + std::to_string(w) + "x" + std::to_string(h) +
@@ -141,11 +148,12 @@ std::string stbReason()
     float* f = stbi_loadf_from_memory(data, length, &w, &h, &n, 3);
     if (!f)
       fail(std::string("cannot decode it: ") + stbReason());
-    std::copy(f, f + rgb.size(), rgb.begin());
+    rgb.assign(f, f + std::size_t(w) * std::size_t(h) * 3);
   } else if (stbi_is_16_bit_from_memory(data, length)) {
     stbi_us* s = stbi_load_16_from_memory(data, length, &w, &h, &n, 3);
     if (!s)
       fail(std::string("cannot decode it: ") + stbReason());
+    rgb.resize(std::size_t(w) * std::size_t(h) * 3);
     for (std::size_t i = 0; i < rgb.size(); ++i) {
       const float e = float(s[i]) / 65535.0f;
       rgb[i] = encoding == ImageEncoding::Srgb ? srgbToLinear(e) : e;
@@ -154,6 +162,7 @@ std::string stbReason()
     stbi_uc* c = stbi_load_from_memory(data, length, &w, &h, &n, 3);
     if (!c)
       fail(std::string("cannot decode it: ") + stbReason());
+    rgb.resize(std::size_t(w) * std::size_t(h) * 3);
     // [srgbTable]
     // 8 bits: 256 possible values, decoded once into a table rather than by pow() for every texel.
     const std::array<float, 256>& decode = srgbDecodeTable();

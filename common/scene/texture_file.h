@@ -7,7 +7,8 @@
 /// computations, and Debian's version (2.27) has published faults on crafted files (out-of-bounds reads and
 /// writes). As with the mesh reader (mesh_file.h), a fork()ed child decodes and sends the texels back through a
 /// pipe; a child that crashes, or whose answer is cut short, becomes an ImageFileError. The size is checked from the
-/// file's header before anything is decoded, so a file that claims 10⁹ texels costs nothing.
+/// file's header before anything is decoded, against kMaxTexels and against the file's own length
+/// (kMaxTexelsPerByte), so a file that claims 10⁹ texels, or a short one that claims 16384 × 16384, costs nothing.
 #pragma once
 
 #include "shading/texture.h"
@@ -26,6 +27,11 @@ public:
 
 /// The largest texture or environment map raylife reads, in texels: 2²⁸ (16384 × 16384), 3 GiB as floats.
 inline constexpr long long kMaxTexels = 1ll << 28;
+/// The most texels a PNG, JPEG or Radiance file may claim for each of its bytes: 2¹⁴. No file of those formats packs
+/// more (PNG at most 8,256: deflate packs at most 1,032 bytes into one, and a byte holds at most 8 one-bit texels;
+/// JPEG at most 512: an 8×8 block takes at least a bit; Radiance about 16), so a file that claims more is cut short
+/// or malformed, and is refused before anything is allocated for its texels.
+inline constexpr long long kMaxTexelsPerByte = 1ll << 14;
 /// The largest image file raylife reads, in bytes (1 GiB).
 inline constexpr std::size_t kMaxImageFileBytes = std::size_t(1) << 30;
 

@@ -15,9 +15,15 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include <sys/resource.h>
 
 using namespace raylife;
 using namespace raylife::test;
@@ -173,6 +179,52 @@ TEST_CASE("bad image files: one message naming the file and the fault, as a scen
   }
   CHECK_THROWS_AS(readTextureImage((dir.path / "missing.png").string(), ImageEncoding::Srgb), ImageFileError);
   CHECK_THROWS_AS(readTextureImage(dir.path.string(), ImageEncoding::Srgb), ImageFileError);
+}
+
+TEST_CASE("a short image file that claims 16384 x 16384 texels is refused before they are allocated (PNG, EXR, PFM)")
+{
+  // Each claims 2^28 texels, raylife's most, 3 GiB as floats, in a few bytes or kilobytes: allocated first, they
+  // cost 3 GiB and 13 to 15 s before the reader found the file cut short (found by fuzzing the PNG reader).
+  TempDir dir("short");
+  std::string png = std::string("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\x40\0\0\0\x40\0", 24);
+  png += std::string("\x08\x02\0\0\0\0\0\0\0", 9); // 8-bit RGB; a CRC, and nothing after it
+  // sky.exr with its windows made 16384 x 16384, and then a table of chunks that are not there (offsets of 0).
+  std::ifstream sky(kTextures + "sky.exr", std::ios::binary);
+  std::string exr((std::istreambuf_iterator<char>(sky)), std::istreambuf_iterator<char>());
+  std::size_t at = 8; // past the magic and the version
+  while (exr.at(at) != '\0') {
+    const std::size_t nameEnd = exr.find('\0', at), typeEnd = exr.find('\0', nameEnd + 1);
+    std::int32_t size = 0;
+    std::memcpy(&size, &exr.at(typeEnd + 1), 4);
+    const std::string name = exr.substr(at, nameEnd - at);
+    if (name == "dataWindow" || name == "displayWindow") {
+      const std::int32_t window[4] = {0, 0, 16383, 16383};
+      std::memcpy(&exr.at(typeEnd + 5), window, sizeof window);
+    }
+    at = typeEnd + 5 + std::size_t(size);
+  }
+  exr = exr.substr(0, at + 1) + std::string(16384 * 8, '\0');
+  const std::string pfm = std::string("PF\n16384 16384\n-1.0\n") + std::string(64, '\0');
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
+      {"short.png", png, "its header claims 16384x16384 texels, more than a file of 33 bytes can hold"},
+      {"short.exr", exr, "the EXR is incomplete"},
+      {"short.pfm", pfm, "the PFM file is truncated (16384x16384 pixels need 3221225472 bytes"},
+  };
+  for (const auto& [name, bytes, fault] : cases) {
+    CAPTURE(name);
+    try {
+      readTextureImage(dir.file(name, bytes), ImageEncoding::Srgb);
+      FAIL("no error");
+    } catch (const ImageFileError& e) {
+      CHECK_THAT(e.what(), Catch::Contains(fault));
+    }
+  }
+  // And nothing near 3 GiB was ever held, here or in the PNG reader's child process.
+  rusage self{}, children{};
+  getrusage(RUSAGE_SELF, &self);
+  getrusage(RUSAGE_CHILDREN, &children);
+  CHECK(self.ru_maxrss < 1024 * 1024); // kilobytes: under 1 GiB
+  CHECK(children.ru_maxrss < 1024 * 1024);
 }
 
 // ---- Filters ---------------------------------------------------------------------------------------------------
