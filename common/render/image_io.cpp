@@ -172,12 +172,26 @@ Image readPfm(const std::string& path)
   return image;
 }
 
+std::string stbFailureReason()
+{
+  const char* raw = stbi_failure_reason();
+  if (!raw)
+    return "the file is malformed";
+  std::string reason = raw;
+  if (reason.empty()) // a PNG chunk type whose first byte is 0: what stb_image reads past the file's end
+    return "it ends early (or holds a chunk whose type starts with a zero byte)";
+  for (char& c : reason)
+    if ((unsigned char)c < 0x20 || (unsigned char)c >= 0x7f)
+      c = '?';
+  return reason;
+}
+
 Image readPng(const std::string& path)
 {
   int w = 0, h = 0, n = 0;
   unsigned char* data = stbi_load(path.c_str(), &w, &h, &n, 3);
   if (!data)
-    throw ImageIoError(path + ": cannot read the PNG: " + std::string(stbi_failure_reason()));
+    throw ImageIoError(path + ": cannot read the PNG: " + stbFailureReason());
   Image image(w, h);
   for (std::size_t i = 0; i < image.pixels.size(); ++i)
     image.pixels[i] = srgbToLinear(float(data[i]) / 255.0f);

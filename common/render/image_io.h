@@ -50,6 +50,10 @@ std::vector<unsigned char> encodeExr(const Image& image);
 Image readPfm(const std::string& path);
 /// Reads a PNG file (8 or 16 bits, any channel count) and decodes sRGB to linear. @throws ImageIoError.
 Image readPng(const std::string& path);
+/// stb_image's reason for its last failure, as one printable line for a message: never empty, every byte outside
+/// printable ASCII shown as '?'. (stb_image copies a PNG chunk's unknown type, four bytes of the file, into its
+/// reason; the zero bytes it reads past a file's end made that reason empty.)
+std::string stbFailureReason();
 /// Reads an OpenEXR file's R, G and B channels (or its Y channel, as grey; any pixel type, converted to float;
 /// a missing one of R, G, B reads as 0) over its data window, row 0 at the top. @throws ImageIoError.
 Image readExr(const std::string& path);

@@ -93,17 +93,6 @@ bool radianceEndsEarly(std::span<const unsigned char> b, int w, int h)
   return false;
 }
 
-// stb_image's reason for a failure, printable: it copies a PNG's unknown chunk type, four bytes of the file, into its
-// message, and a message must be one printable line.
-std::string stbReason()
-{
-  std::string reason = stbi_failure_reason() ? stbi_failure_reason() : "unknown fault";
-  for (char& c : reason)
-    if ((unsigned char)c < 0x20 || (unsigned char)c >= 0x7f)
-      c = '?';
-  return reason;
-}
-
 // The child: stb_image on the bytes, linear floats to `fd`, then _exit (see mesh_file.cpp for why _exit).
 [[noreturn]] void decodeInChild(int fd, std::span<const unsigned char> bytes, ImageEncoding encoding) noexcept
 {
@@ -127,7 +116,7 @@ std::string stbReason()
   int w = 0, h = 0, n = 0;
   // The size from the header first: nothing is decoded for a file that claims too many texels.
   if (!stbi_info_from_memory(data, length, &w, &h, &n))
-    fail(std::string("cannot read it: ") + stbReason());
+    fail(std::string("cannot read it: ") + stbFailureReason());
   if (w <= 0 || h <= 0)
     fail("the image has no texels (" + std::to_string(w) + "x" + std::to_string(h) + ")");
   if ((long long)w * h > kMaxTexels)
@@ -147,12 +136,12 @@ std::string stbReason()
            " Radiance image)");
     float* f = stbi_loadf_from_memory(data, length, &w, &h, &n, 3);
     if (!f)
-      fail(std::string("cannot decode it: ") + stbReason());
+      fail(std::string("cannot decode it: ") + stbFailureReason());
     rgb.assign(f, f + std::size_t(w) * std::size_t(h) * 3);
   } else if (stbi_is_16_bit_from_memory(data, length)) {
     stbi_us* s = stbi_load_16_from_memory(data, length, &w, &h, &n, 3);
     if (!s)
-      fail(std::string("cannot decode it: ") + stbReason());
+      fail(std::string("cannot decode it: ") + stbFailureReason());
     rgb.resize(std::size_t(w) * std::size_t(h) * 3);
     for (std::size_t i = 0; i < rgb.size(); ++i) {
       const float e = float(s[i]) / 65535.0f;
@@ -161,7 +150,7 @@ std::string stbReason()
   } else {
     stbi_uc* c = stbi_load_from_memory(data, length, &w, &h, &n, 3);
     if (!c)
-      fail(std::string("cannot decode it: ") + stbReason());
+      fail(std::string("cannot decode it: ") + stbFailureReason());
     rgb.resize(std::size_t(w) * std::size_t(h) * 3);
     // [srgbTable]
     // 8 bits: 256 possible values, decoded once into a table rather than by pow() for every texel.

@@ -148,6 +148,7 @@ TEST_CASE("bad image files: one message naming the file and the fault, as a scen
       {"text.png", "not an image at all"},
       {"truncated.png", whole.substr(0, whole.size() / 2)},
       {"zero.png", header(0, 4)},
+      {"ends_early.png", header(16, 16)},
       {"huge.png", header(100000, 100000)},
       {"jpeg.png", std::string("\xff\xd8\xff\xe0", 4) + "JFIF"},
       {"nosize.hdr", "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n"},
@@ -160,7 +161,13 @@ TEST_CASE("bad image files: one message naming the file and the fault, as a scen
   for (const auto& [name, bytes] : cases) {
     const std::string path = dir.file(name, bytes);
     CAPTURE(name);
-    CHECK_THROWS_AS(readTextureImage(path, ImageEncoding::Srgb), ImageFileError);
+    try {
+      readTextureImage(path, ImageEncoding::Srgb);
+      FAIL("no error");
+    } catch (const ImageFileError& e) {
+      // A reason after the colon, never an empty one (stb_image's for a PNG cut short after its header was empty).
+      CHECK_FALSE(std::string(e.what()).ends_with(": "));
+    }
     // Through a scene: scene file, JSON path, image file, one line.
     const std::string scene = dir.file("s.json", R"({"camera": {"eye": [0, 0, 5], "focal": [0, 0, 0]},
       "materials": {"m": {"type": "diffuse", "color": {"image": ")" + name + R"("}}},

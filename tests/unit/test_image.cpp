@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <string>
 
 using namespace raylife;
 
@@ -68,6 +70,29 @@ TEST_CASE("PNG is clamped and sRGB-encoded and decodes back to linear within 8-b
   CHECK(back.at(1, 0, 1) == 1.0f);
   CHECK(back.at(2, 1, 2) == 0.0f);
   std::remove(path.c_str());
+}
+
+TEST_CASE("a PNG that ends after its header, or holds an unknown chunk, is refused with a printable reason")
+{
+  // The signature and a 16 x 16 RGB header (stb_image does not check the CRC), then nothing, or a critical chunk of
+  // an unknown type whose first byte is a control character.
+  const std::string header = std::string("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\0\x10\0\0\0\x10", 24) +
+                             std::string("\x08\x02\0\0\0\0\0\0\0", 9);
+  const std::string unknown = header + std::string("\0\0\0\0\x01" "BCD\0\0\0\0", 12);
+  for (const auto& [bytes, reason] :
+       {std::pair{header, "it ends early (or holds a chunk whose type starts with a zero byte)"},
+        std::pair{unknown, "?BCD PNG chunk not known"}}) {
+    const std::string path = tempPath("short.png");
+    std::ofstream(path, std::ios::binary) << bytes;
+    try {
+      readPng(path);
+      FAIL("no error");
+    } catch (const ImageIoError& e) {
+      // (Before: "cannot read the PNG: " and nothing after it, or the control character itself.)
+      CHECK(std::string(e.what()) == path + ": cannot read the PNG: " + reason);
+    }
+    std::remove(path.c_str());
+  }
 }
 
 TEST_CASE("the film's mean and variance of the mean follow the textbook formulas")
