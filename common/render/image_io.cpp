@@ -1,6 +1,7 @@
 #include "render/image_io.h"
 
-#include <stb/stb_image.h>
+#include "scene/texture_file.h"
+
 #include <stb/stb_image_write.h>
 
 #include <algorithm>
@@ -172,30 +173,24 @@ Image readPfm(const std::string& path)
   return image;
 }
 
-std::string stbFailureReason()
-{
-  const char* raw = stbi_failure_reason();
-  if (!raw)
-    return "the file is malformed";
-  std::string reason = raw;
-  if (reason.empty()) // a PNG chunk type whose first byte is 0: what stb_image reads past the file's end
-    return "it ends early (or holds a chunk whose type starts with a zero byte)";
-  for (char& c : reason)
-    if ((unsigned char)c < 0x20 || (unsigned char)c >= 0x7f)
-      c = '?';
-  return reason;
-}
-
 Image readPng(const std::string& path)
 {
-  int w = 0, h = 0, n = 0;
-  unsigned char* data = stbi_load(path.c_str(), &w, &h, &n, 3);
-  if (!data)
-    throw ImageIoError(path + ": cannot read the PNG: " + stbFailureReason());
-  Image image(w, h);
-  for (std::size_t i = 0; i < image.pixels.size(); ++i)
-    image.pixels[i] = srgbToLinear(float(data[i]) / 255.0f);
-  stbi_image_free(data);
+  // Through the texture reader: stb_image in a child process, on a PNG only (texture_file.h says why), so that a
+  // crafted file given to raylife_check, raylife_compare or raylife_image ends in a message, not in a fault. The
+  // values come as stored (an 8-bit code c as c/255.0f, the float this reader always decoded) and are decoded from
+  // sRGB here.
+  TexelImage texels;
+  try {
+    texels = readStbImageFile(path, ".png", ImageEncoding::Linear);
+  } catch (const ImageFileError& e) {
+    throw ImageIoError(e.what());
+  }
+  Image image;
+  image.width = texels.width;
+  image.height = texels.height;
+  image.pixels = std::move(texels.rgb);
+  for (float& v : image.pixels)
+    v = srgbToLinear(v);
   return image;
 }
 

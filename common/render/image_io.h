@@ -48,12 +48,12 @@ std::vector<unsigned char> encodeExr(const Image& image);
 /// Reads a PFM file (colour "PF" or grey "Pf", either byte order) into linear floats, row 0 at the top.
 /// @throws ImageIoError naming the file and the fault.
 Image readPfm(const std::string& path);
-/// Reads a PNG file (8 or 16 bits, any channel count) and decodes sRGB to linear. @throws ImageIoError.
+/// Reads a PNG file (8 or 16 bits, any channel count; grey becomes RGB, alpha is dropped) and decodes sRGB to
+/// linear: an 8-bit code c becomes srgbToLinear(c / 255.0f), so PNG codes are recovered exactly (grading.h), and a
+/// 16-bit one srgbToLinear(c / 65535.0f). The file's first bytes must be PNG's signature, whatever its name; it is
+/// decoded in a child process, as a texture is (readStbImageFile in scene/texture_file.h), at most kMaxTexels.
+/// @throws ImageIoError naming the file and the fault.
 Image readPng(const std::string& path);
-/// stb_image's reason for its last failure, as one printable line for a message: never empty, every byte outside
-/// printable ASCII shown as '?'. (stb_image copies a PNG chunk's unknown type, four bytes of the file, into its
-/// reason; the zero bytes it reads past a file's end made that reason empty.)
-std::string stbFailureReason();
 /// Reads an OpenEXR file's R, G and B channels (or its Y channel, as grey; any pixel type, converted to float;
 /// a missing one of R, G, B reads as 0) over its data window, row 0 at the top. @throws ImageIoError.
 Image readExr(const std::string& path);

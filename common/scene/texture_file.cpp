@@ -35,7 +35,10 @@ std::string lowerExtension(const std::string& path)
   return e;
 }
 
-// The child's answer: a header, then (status 0) width·height·3 floats, or (status 1) `width` bytes of message.
+// The child's answer: a header, then width·height·3 values as stb_image decoded them (kFloats: floats, kCodes8:
+// bytes, kCodes16: 16-bit codes), or (kMessage) `width` bytes of message. The codes are made floats in the parent:
+// a quarter (or half) of the bytes through the pipe, and no second copy of the image in the child.
+enum WireStatus : std::uint32_t { kFloats = 0, kMessage = 1, kCodes8 = 2, kCodes16 = 3 };
 struct WireHeader {
   std::uint32_t status, width, height;
 };
@@ -93,8 +96,36 @@ bool radianceEndsEarly(std::span<const unsigned char> b, int w, int h)
   return false;
 }
 
-// The child: stb_image on the bytes, linear floats to `fd`, then _exit (see mesh_file.cpp for why _exit).
-[[noreturn]] void decodeInChild(int fd, std::span<const unsigned char> bytes, ImageEncoding encoding) noexcept
+// stb_image's reason for its last failure, as one printable line for a message: never empty, every byte outside
+// printable ASCII shown as '?'. (stb_image copies a PNG chunk's unknown type, four bytes of the file, into its
+// reason; the zero bytes it reads past a file's end made that reason empty.)
+std::string stbFailureReason()
+{
+  const char* raw = stbi_failure_reason();
+  if (!raw)
+    return "the file is malformed";
+  std::string reason = raw;
+  if (reason.empty()) // a PNG chunk type whose first byte is 0: what stb_image reads past the file's end
+    return "it ends early (or holds a chunk whose type starts with a zero byte)";
+  for (char& c : reason)
+    if ((unsigned char)c < 0x20 || (unsigned char)c >= 0x7f)
+      c = '?';
+  return reason;
+}
+
+// The child's answer of texels: w·h·3 values of `valueBytes` each, then _exit.
+[[noreturn]] void sendTexels(int fd, WireStatus status, int w, int h, const void* values, std::size_t valueBytes)
+{
+  const WireHeader header{status, std::uint32_t(w), std::uint32_t(h)};
+  if (!writeAll(fd, &header, sizeof header) ||
+      !writeAll(fd, values, std::size_t(w) * std::size_t(h) * 3 * valueBytes))
+    _exit(5);
+  _exit(0);
+}
+
+// The child: stb_image on the bytes, its texels to `fd` as it decoded them, then _exit (see mesh_file.cpp for why
+// _exit).
+[[noreturn]] void decodeInChild(int fd, std::span<const unsigned char> bytes) noexcept
 {
   for (const int s : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL, SIGTRAP, SIGSYS})
     std::signal(s, SIG_DFL);
@@ -106,7 +137,7 @@ bool radianceEndsEarly(std::span<const unsigned char> b, int w, int h)
     _exit(5);
 #endif
   auto fail = [&](const std::string& message) {
-    const WireHeader header{1, std::uint32_t(message.size()), 0};
+    const WireHeader header{kMessage, std::uint32_t(message.size()), 0};
     writeAll(fd, &header, sizeof header);
     writeAll(fd, message.data(), message.size());
     _exit(0);
@@ -128,42 +159,51 @@ bool radianceEndsEarly(std::span<const unsigned char> b, int w, int h)
   if ((long long)w * h > kMaxTexelsPerByte * (long long)bytes.size())
     fail("its header claims " + std::to_string(w) + "x" + std::to_string(h) + " texels, more than a file of " +
          std::to_string(bytes.size()) + " bytes can hold: the file is truncated or malformed");
-  // (The floats are allocated once stb_image has decoded the texels, not before: a file it refuses costs no more.)
-  std::vector<float> rgb;
+  // (The texels are allocated by stb_image as it decodes them, not before: a file it refuses costs no more.)
   if (stbi_is_hdr_from_memory(data, length)) {
     if (radianceEndsEarly(bytes, w, h))
       fail("its texels end early: the file is truncated (a " + std::to_string(w) + "x" + std::to_string(h) +
            " Radiance image)");
-    float* f = stbi_loadf_from_memory(data, length, &w, &h, &n, 3);
+    const float* f = stbi_loadf_from_memory(data, length, &w, &h, &n, 3);
     if (!f)
       fail(std::string("cannot decode it: ") + stbFailureReason());
-    rgb.assign(f, f + std::size_t(w) * std::size_t(h) * 3);
+    sendTexels(fd, kFloats, w, h, f, sizeof(float));
   } else if (stbi_is_16_bit_from_memory(data, length)) {
-    stbi_us* s = stbi_load_16_from_memory(data, length, &w, &h, &n, 3);
-    if (!s)
+    const stbi_us* codes = stbi_load_16_from_memory(data, length, &w, &h, &n, 3);
+    if (!codes)
       fail(std::string("cannot decode it: ") + stbFailureReason());
-    rgb.resize(std::size_t(w) * std::size_t(h) * 3);
-    for (std::size_t i = 0; i < rgb.size(); ++i) {
-      const float e = float(s[i]) / 65535.0f;
-      rgb[i] = encoding == ImageEncoding::Srgb ? srgbToLinear(e) : e;
-    }
+    sendTexels(fd, kCodes16, w, h, codes, sizeof(stbi_us));
   } else {
-    stbi_uc* c = stbi_load_from_memory(data, length, &w, &h, &n, 3);
-    if (!c)
+    const stbi_uc* codes = stbi_load_from_memory(data, length, &w, &h, &n, 3);
+    if (!codes)
       fail(std::string("cannot decode it: ") + stbFailureReason());
-    rgb.resize(std::size_t(w) * std::size_t(h) * 3);
+    sendTexels(fd, kCodes8, w, h, codes, 1);
+  }
+}
+
+// The parent's side of the codes: `count` of them from `fd` as linear floats, decoded as `encoding` says. @return
+// false if the answer was cut short.
+template <class Code>
+bool readCodes(int fd, std::size_t count, ImageEncoding encoding, std::vector<float>& rgb)
+{
+  std::vector<Code> codes(count);
+  if (!readAll(fd, codes.data(), count * sizeof(Code)))
+    return false;
+  rgb.resize(count);
+  if constexpr (sizeof(Code) == 1) {
     // [srgbTable]
     // 8 bits: 256 possible values, decoded once into a table rather than by pow() for every texel.
     const std::array<float, 256>& decode = srgbDecodeTable();
-    for (std::size_t i = 0; i < rgb.size(); ++i)
-      rgb[i] = encoding == ImageEncoding::Srgb ? decode[c[i]] : float(c[i]) / 255.0f;
+    for (std::size_t i = 0; i < count; ++i)
+      rgb[i] = encoding == ImageEncoding::Srgb ? decode[codes[i]] : float(codes[i]) / 255.0f;
     // [srgbTable]
+  } else {
+    for (std::size_t i = 0; i < count; ++i) {
+      const float e = float(codes[i]) / 65535.0f;
+      rgb[i] = encoding == ImageEncoding::Srgb ? srgbToLinear(e) : e;
+    }
   }
-  const WireHeader header{0, std::uint32_t(w), std::uint32_t(h)};
-  if (!writeAll(fd, &header, sizeof header) ||
-      !writeAll(fd, rgb.data(), rgb.size() * sizeof(float)))
-    _exit(5);
-  _exit(0);
+  return true;
 }
 
 std::string describeStatus(int status)
@@ -208,6 +248,12 @@ std::string signatureOf(std::span<const unsigned char> bytes)
   return "";
 }
 
+// The format signatureOf names, as a reader knows it: "PNG", "JPEG" or "Radiance HDR".
+std::string formatName(const std::string& format)
+{
+  return format == ".jpg" ? "JPEG" : format == ".hdr" ? "Radiance HDR" : "PNG";
+}
+
 TexelImage fromImage(Image image)
 {
   TexelImage t;
@@ -229,7 +275,8 @@ TexelImage decodeStbImage(std::span<const unsigned char> bytes, ImageEncoding en
     throw ImageFileError(name + ": not a PNG, JPEG or Radiance HDR image (its first bytes are none of theirs)");
   // (Not a structured binding: clang 14, the sanitizer build's compiler, cannot capture one in a lambda.)
   const std::pair<int, pid_t> child = forkWithPipe<ImageFileError>(
-      name + ": cannot start the image reader: ", [&](int writeEnd) { decodeInChild(writeEnd, bytes, encoding); });
+      name + ": cannot start the image reader: ", [&](int writeEnd) { decodeInChild(writeEnd, bytes); },
+      1 << 20);
   const int fd = child.first;
   const pid_t pid = child.second;
   // The parent: the header, then the texels or the message; the child reaped whatever happens.
@@ -245,15 +292,21 @@ TexelImage decodeStbImage(std::span<const unsigned char> bytes, ImageEncoding en
   TexelImage image;
   std::string message;
   bool whole = readAll(fd, &header, sizeof header);
-  if (whole && header.status == 1) {
+  if (whole && header.status == kMessage) {
     message.resize(std::min<std::uint32_t>(header.width, 1024));
     whole = readAll(fd, message.data(), message.size());
-  } else if (whole && header.status == 0 && header.width > 0 && header.height > 0 &&
-             (long long)header.width * header.height <= kMaxTexels) {
+  } else if (whole && (header.status == kFloats || header.status == kCodes8 || header.status == kCodes16) &&
+             header.width > 0 && header.height > 0 && (long long)header.width * header.height <= kMaxTexels) {
     image.width = int(header.width);
     image.height = int(header.height);
-    image.rgb.resize(std::size_t(header.width) * header.height * 3);
-    whole = readAll(fd, image.rgb.data(), image.rgb.size() * sizeof(float));
+    const std::size_t count = std::size_t(header.width) * header.height * 3;
+    if (header.status == kFloats) {
+      image.rgb.resize(count);
+      whole = readAll(fd, image.rgb.data(), count * sizeof(float));
+    } else {
+      whole = header.status == kCodes8 ? readCodes<std::uint8_t>(fd, count, encoding, image.rgb)
+                                       : readCodes<std::uint16_t>(fd, count, encoding, image.rgb);
+    }
   } else {
     whole = false;
   }
@@ -263,7 +316,7 @@ TexelImage decodeStbImage(std::span<const unsigned char> bytes, ImageEncoding en
     throw ImageFileError(name + ": " + (WIFSIGNALED(status) || (WIFEXITED(status) && WEXITSTATUS(status) != 0)
                                             ? describeStatus(status)
                                             : "the image reader's answer was cut short"));
-  if (header.status == 1)
+  if (header.status == kMessage)
     throw ImageFileError(name + ": " + message);
   checkTexels(image, name);
   return image;
@@ -291,6 +344,14 @@ TexelImage readTextureImage(const std::string& path, ImageEncoding encoding)
   if (extension != ".png" && extension != ".jpg" && extension != ".jpeg" && extension != ".hdr")
     throw ImageFileError(path + ": unknown image format '" + (extension.empty() ? "(no extension)" : extension) +
                          "': raylife reads .png, .jpg, .jpeg, .hdr, .exr and .pfm");
+  return readStbImageFile(path, extension == ".jpeg" ? ".jpg" : extension, encoding);
+}
+
+TexelImage readStbImageFile(const std::string& path, const std::string& format, ImageEncoding encoding)
+{
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw ImageFileError(path + ": is a folder, not an image file");
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw ImageFileError(path + ": cannot open the image file: " + std::strerror(errno));
@@ -304,11 +365,11 @@ TexelImage readTextureImage(const std::string& path, ImageEncoding encoding)
   }
   if (in.bad())
     throw ImageFileError(path + ": cannot read the image file: " + std::strerror(errno));
-  // The signature must be the extension's: a .png that is a JPEG is a mistake worth naming.
-  const std::string format = signatureOf(bytes);
-  if (!bytes.empty() && format != (extension == ".jpeg" ? ".jpg" : extension))
-    throw ImageFileError(path + ": not a " + extension.substr(1) + " file (its first bytes are not the format's "
-                         "signature)");
+  // The signature must be the format's, whatever the name says: a .png that is a JPEG is a mistake worth naming,
+  // and stb_image's decoders for formats raylife does not read (GIF, PSD, PNM, ...) are never reached.
+  if (!bytes.empty() && signatureOf(bytes) != format)
+    throw ImageFileError(path + ": not a " + formatName(format) +
+                         " file (its first bytes are not the format's signature)");
   return decodeStbImage(bytes, encoding, path);
 }
 

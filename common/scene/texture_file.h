@@ -47,6 +47,11 @@ enum class ImageEncoding {
 /// not the format its extension says, truncated, zero-sized, more than kMaxTexels, a texel negative or not finite.
 TexelImage readTextureImage(const std::string& path, ImageEncoding encoding);
 
+/// readTextureImage's reading of a PNG, JPEG or Radiance HDR file, for any name: the file is read whole (at most
+/// kMaxImageFileBytes), its first bytes must be the signature of `format` (".png", ".jpg" or ".hdr"; stb_image's
+/// decoders of other formats are never reached), and it is decoded by decodeStbImage, in a child process.
+/// @throws ImageFileError naming the file and the fault (as readTextureImage).
+TexelImage readStbImageFile(const std::string& path, const std::string& format, ImageEncoding encoding);
 /// readTextureImage's decoding of bytes in memory (PNG, JPEG or Radiance HDR: stb_image's formats, chosen by the
 /// bytes' signature), `name` in messages: the fuzz target's entry. @throws ImageFileError.
 TexelImage decodeStbImage(std::span<const unsigned char> bytes, ImageEncoding encoding, const std::string& name);

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -89,10 +90,77 @@ TEST_CASE("a PNG that ends after its header, or holds an unknown chunk, is refus
       FAIL("no error");
     } catch (const ImageIoError& e) {
       // (Before: "cannot read the PNG: " and nothing after it, or the control character itself.)
-      CHECK(std::string(e.what()) == path + ": cannot read the PNG: " + reason);
+      CHECK(std::string(e.what()) == path + ": cannot decode it: " + reason);
     }
     std::remove(path.c_str());
   }
+}
+
+namespace {
+// A PNG of one pixel, 16-bit RGB, its IDAT one stored (uncompressed) deflate block, every CRC and the Adler-32 right.
+std::string png16(std::uint16_t r, std::uint16_t g, std::uint16_t b)
+{
+  auto be32 = [](std::uint32_t v) {
+    return std::string{char(v >> 24), char((v >> 16) & 0xff), char((v >> 8) & 0xff), char(v & 0xff)};
+  };
+  auto crc = [](const std::string& bytes) {
+    std::uint32_t c = 0xffffffffu;
+    for (const unsigned char byte : bytes) {
+      c ^= byte;
+      for (int k = 0; k < 8; ++k)
+        c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+    }
+    return ~c;
+  };
+  auto chunk = [&](const std::string& type, const std::string& data) {
+    return be32(std::uint32_t(data.size())) + type + data + be32(crc(type + data));
+  };
+  std::string row(1, '\0'); // filter type 0, then the three samples, big-endian
+  for (const std::uint16_t v : {r, g, b})
+    row += std::string{char(v >> 8), char(v & 0xff)};
+  std::uint32_t a = 1, s = 0;
+  for (const unsigned char byte : row) {
+    a = (a + byte) % 65521;
+    s = (s + a) % 65521;
+  }
+  const std::string stored = std::string{'\x01', char(row.size()), '\0', char(~row.size() & 0xff), '\xff'};
+  const std::string ihdr = be32(1) + be32(1) + std::string("\x10\x02\0\0\0", 5);
+  return std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) +
+         chunk("IDAT", std::string("\x78\x01", 2) + stored + row + be32((s << 16) | a)) + chunk("IEND", "");
+}
+} // namespace
+
+TEST_CASE("readPng reads PNG files only, whatever their names, and 16-bit ones at 16 bits")
+{
+  const std::string path = tempPath("not_a_png.png");
+  // stb_image would decode any of these as the format it is (it did, as a PNG: a PNM file compared and converted
+  // as one); raylife's tools read PNG, and stb_image's other decoders are never reached.
+  for (const std::string& bytes : {std::string("P6\n2 2\n255\n") + std::string(12, '\x80'),
+                                   std::string("\xff\xd8\xff\xe0\0\x10JFIF", 10), std::string("GIF89a"),
+                                   std::string("BM") + std::string(60, '\0')}) {
+    CAPTURE(bytes.substr(0, 4));
+    std::ofstream(path, std::ios::binary) << bytes;
+    try {
+      readPng(path);
+      FAIL("no error");
+    } catch (const ImageIoError& e) {
+      CHECK(std::string(e.what()) == path + ": not a PNG file (its first bytes are not the format's signature)");
+    }
+  }
+  // A header of 33 bytes that claims 16384 x 16384 texels: refused from the header (texture_file.h).
+  std::ofstream(path, std::ios::binary) << std::string("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\x40\0\0\0\x40\0", 24) +
+                                               std::string("\x08\x02\0\0\0\0\0\0\0", 9);
+  CHECK_THROWS_WITH(readPng(path), Catch::Contains("more than a file of 33 bytes can hold"));
+  CHECK_THROWS_WITH(readPng(tempPath("no_such_file.png")), Catch::Contains("cannot open the image file"));
+  // 16 bits a sample, kept: 32768 is not 128 (what stb_image's 8-bit decode made of it), and 257 is not 1.
+  std::ofstream(path, std::ios::binary) << png16(65535, 32768, 257);
+  const Image image = readPng(path);
+  REQUIRE(image.width == 1);
+  REQUIRE(image.height == 1);
+  CHECK(image.at(0, 0, 0) == 1.0f);
+  CHECK(image.at(0, 0, 1) == srgbToLinear(32768 / 65535.0f));
+  CHECK(image.at(0, 0, 2) == srgbToLinear(257 / 65535.0f));
+  std::remove(path.c_str());
 }
 
 TEST_CASE("the film's mean and variance of the mean follow the textbook formulas")
