@@ -1,20 +1,22 @@
 #!/usr/bin/env bash
-# Fuzzes the scene loader, the mesh files and the texture images with libFuzzer for SECONDS in all (default 60): a
-# third each, or all of it for the scene loader when RAYLIFE_FUZZ_MESH=0. Single process.
+# Fuzzes the scene loader, the mesh files, the texture images (stb_image's formats) and the float images (OpenEXR and
+# PFM) with libFuzzer for SECONDS in all (default 60): a quarter each, or all of it for the scene loader when
+# RAYLIFE_FUZZ_MESH=0. Single process.
 #   tools/fuzz.sh SECONDS [BUILD_DIR]
-# Builds tests/fuzz/fuzz_scene and fuzz_mesh in BUILD_DIR (default build-asan/) configured by the asan preset: clang,
-# -fsanitize=fuzzer-no-link,address,undefined, the same build in which `cmake --workflow --preset asan` runs the
-# suite, so CI builds the sanitized code once for both. The scene fuzzer is seeded from scenes/, scenes/stress/ and
-# tests/fuzz/regressions/, the mesh fuzzer
-# from tests/fuzz/mesh_regressions/ (and Assimp's test models, where Debian's assimp-testmodels is installed); each
+# Builds tests/fuzz/fuzz_scene, fuzz_mesh, fuzz_image and fuzz_float_image in BUILD_DIR (default build-asan/)
+# configured by the asan preset: clang, -fsanitize=fuzzer-no-link,address,undefined, the same build in which
+# `cmake --workflow --preset asan` runs the suite, so CI builds the sanitized code once for both. The scene fuzzer is
+# seeded from scenes/, scenes/stress/ and tests/fuzz/regressions/, the mesh fuzzer from tests/fuzz/mesh_regressions/
+# (and Assimp's test models, where Debian's assimp-testmodels is installed), the image fuzzers from their own
+# regressions folders (and Assimp's PNG and JPEG files); each
 # keeps its growing corpus in BUILD_DIR/corpus*/ between runs, and leaves any crashing or hanging input in
 # BUILD_DIR/crashes/.
 # The mesh fuzzer checks raylife's handling of mesh files end to end: Assimp runs in a child process of the loader
 # (common/scene/mesh_file.cpp), where a fault of the library itself (Debian's Assimp 5.2 has several on hostile files)
 # must come back as one MeshError line; a crash, a hang or a sanitizer report in raylife's own process stops it.
 # (Coverage inside the child is not seen: the fuzzer steers by raylife's code in the parent.)
-# Exit status: 0 nothing found, 1 the fuzzer found a fault (copy the input into tests/fuzz/regressions/ or
-# mesh_regressions/ once fixed), 2 bad usage. Needs clang, libclang-rt-14-dev and libomp-14-dev (./setup.sh --fuzz).
+# Exit status: 0 nothing found, 1 the fuzzer found a fault (copy the input into tests/fuzz/regressions/,
+# mesh_regressions/, image_regressions/ or float_image_regressions/ once fixed), 2 bad usage. Needs clang, libclang-rt-14-dev and libomp-14-dev (./setup.sh --fuzz).
 set -euo pipefail
 
 seconds=${1:-60}
@@ -27,16 +29,18 @@ build=${2:-$root/build-asan}
 
 mkdir -p "$build"
 (cd "$root" && cmake --preset asan -B "$build") >"$build/configure.log" 2>&1 || { cat "$build/configure.log" >&2; exit 1; }
-cmake --build "$build" --target fuzz_scene fuzz_mesh fuzz_image -j2
+cmake --build "$build" --target fuzz_scene fuzz_mesh fuzz_image fuzz_float_image -j2
 
 meshOn=1
 [ "${RAYLIFE_FUZZ_MESH:-1}" != 0 ] || meshOn=0
 sceneSeconds=$seconds
 if [ "$meshOn" = 1 ]; then
-  # A third each to the scene loader, the mesh files and the texture images (chapter 14).
-  sceneSeconds=$(( (seconds + 2) / 3 ))
-  meshSeconds=$(( (seconds - sceneSeconds + 1) / 2 > 0 ? (seconds - sceneSeconds + 1) / 2 : 1 ))
-  imageSeconds=$(( seconds - sceneSeconds - meshSeconds > 0 ? seconds - sceneSeconds - meshSeconds : 1 ))
+  # A quarter each to the scene loader, the mesh files, the texture images and the float images (chapter 14), at
+  # least a second each.
+  sceneSeconds=$(( (seconds + 3) / 4 ))
+  meshSeconds=$(( (seconds - sceneSeconds + 2) / 3 > 0 ? (seconds - sceneSeconds + 2) / 3 : 1 ))
+  imageSeconds=$(( (seconds - sceneSeconds - meshSeconds + 1) / 2 > 0 ? (seconds - sceneSeconds - meshSeconds + 1) / 2 : 1 ))
+  floatSeconds=$(( seconds - sceneSeconds - meshSeconds - imageSeconds > 0 ? seconds - sceneSeconds - meshSeconds - imageSeconds : 1 ))
 fi
 
 corpus="$build/corpus"
@@ -85,6 +89,17 @@ if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
   # (stb_image runs in the reader's child process, which ends with _exit.)
   ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_image" "$imageCorpus" "$imageSeeds" \
     "$root/tests/fuzz/image_regressions" -max_total_time="$imageSeconds" -timeout=10 -rss_limit_mb=2048 \
+    -max_len=65536 -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
+fi
+if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
+  # The float images: OpenEXR and raylife's PFM reader, in this process. Seeded with their regressions, which hold
+  # small files of each of OpenEXR's compressions, scan lines and tiles, and PFMs (the first byte: even for OpenEXR,
+  # odd for PFM).
+  floatCorpus="$build/corpus-float-image"
+  mkdir -p "$floatCorpus"
+  echo "fuzz.sh: fuzzing the float images for $floatSeconds s; corpus $floatCorpus, faults into $crashes/"
+  ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_float_image" "$floatCorpus" \
+    "$root/tests/fuzz/float_image_regressions" -max_total_time="$floatSeconds" -timeout=10 -rss_limit_mb=2048 \
     -max_len=65536 -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
 fi
 if [ "$status" -ne 0 ]; then

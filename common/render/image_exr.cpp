@@ -2,6 +2,8 @@
 // place all or nothing, and read with any channel type OpenEXR converts to float.
 #include "render/image_io.h"
 
+#include "core/printable.h"
+
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
@@ -99,7 +101,7 @@ Image readExr(const std::string& path)
   } catch (const ImageIoError&) {
     throw;
   } catch (const std::exception& e) {
-    throw ImageIoError(path + ": cannot read the EXR: " + e.what());
+    throw ImageIoError(path + ": cannot read the EXR: " + printable(e.what()));
   }
 }
 

@@ -3,6 +3,10 @@
 #include "scene/scene.h"
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <unistd.h>
 
 namespace raylife::fuzz {
 
@@ -78,6 +82,19 @@ std::string checkMessage(const std::string& message, const std::string& name)
   return "";
 }
 
+// The promises of an image the readers accept: a size in [1, kMaxTexels], width·height·3 texels, finite and ≥ 0.
+std::string checkTexels(const TexelImage& image)
+{
+  if (image.width < 1 || image.height < 1 || (long long)image.width * image.height > kMaxTexels)
+    return "an image of " + std::to_string(image.width) + "x" + std::to_string(image.height) + " was accepted";
+  if (image.rgb.size() != std::size_t(image.width) * std::size_t(image.height) * 3)
+    return "texels that do not match the size";
+  for (float v : image.rgb)
+    if (!std::isfinite(v) || v < 0)
+      return "a texel that is negative or not finite was accepted";
+  return "";
+}
+
 } // namespace
 
 std::string checkMeshBytes(std::string_view bytes, MeshFormat format)
@@ -112,14 +129,27 @@ std::string checkImageBytes(std::string_view bytes, ImageEncoding encoding)
   } catch (const ImageFileError& e) {
     return checkMessage(e.what(), "fuzz.image");
   }
-  if (image.width < 1 || image.height < 1 || (long long)image.width * image.height > kMaxTexels)
-    return "an image of " + std::to_string(image.width) + "x" + std::to_string(image.height) + " was accepted";
-  if (image.rgb.size() != std::size_t(image.width) * std::size_t(image.height) * 3)
-    return "texels that do not match the size";
-  for (float v : image.rgb)
-    if (!std::isfinite(v) || v < 0)
-      return "a texel that is negative or not finite was accepted";
-  return "";
+  return checkTexels(image);
+}
+
+std::string checkFloatImageBytes(std::string_view bytes, const std::string& extension)
+{
+  // One folder a process, made once: the fuzzer and the regression test may run side by side.
+  static const std::filesystem::path folder = [] {
+    std::filesystem::path p =
+        std::filesystem::temp_directory_path() / ("raylife-fuzz-image-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(p);
+    return p;
+  }();
+  const std::string path = (folder / ("fuzz" + extension)).string();
+  std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+  TexelImage image;
+  try {
+    image = readTextureImage(path, ImageEncoding::Linear);
+  } catch (const ImageFileError& e) {
+    return checkMessage(e.what(), path);
+  }
+  return checkTexels(image);
 }
 
 std::string checkSceneText(std::string_view text)

@@ -31,4 +31,10 @@ std::string checkMeshBytes(std::string_view bytes, MeshFormat format);
 /// @return "" when all is well, otherwise what was wrong.
 std::string checkImageBytes(std::string_view bytes, ImageEncoding encoding);
 
+/// Writes `bytes` to a file "fuzz.exr" or "fuzz.pfm" (as `extension` says: ".exr" or ".pfm") in this process's own
+/// folder under the system's temporary folder, reads it with readTextureImage (OpenEXR and raylife's PFM reader run
+/// in this process), and checks what comes back as checkImageBytes does; the message must start with the file's
+/// path. @return "" when all is well, otherwise what was wrong.
+std::string checkFloatImageBytes(std::string_view bytes, const std::string& extension);
+
 } // namespace raylife::fuzz

@@ -70,6 +70,20 @@ TEST_CASE("every image file the image fuzzer found or was seeded with is handled
   }
 }
 
+TEST_CASE("every float image file the float image fuzzer found or was seeded with is handled")
+{
+  // The fuzz target's input: the first byte chooses the format (even: OpenEXR, odd: PFM), the rest is the file.
+  const auto files = filesIn(RAYLIFE_FUZZ_FLOAT_IMAGE_REGRESSIONS);
+  REQUIRE(files.size() >= 3);
+  for (const auto& file : files) {
+    INFO(file.string());
+    const std::string bytes = readAll(file);
+    REQUIRE_FALSE(bytes.empty());
+    CHECK(raylife::fuzz::checkFloatImageBytes(std::string_view(bytes).substr(1),
+                                              static_cast<unsigned char>(bytes[0]) % 2 == 0 ? ".exr" : ".pfm") == "");
+  }
+}
+
 TEST_CASE("every mesh file the mesh fuzzer found or was seeded with is handled")
 {
   // The fuzz target's input: the first byte chooses the format (even: OBJ, odd: PLY), the rest is the file.
