@@ -181,26 +181,30 @@ std::string stbFailureReason()
   }
 }
 
-// The parent's side of the codes: `count` of them from `fd` as linear floats, decoded as `encoding` says. @return
-// false if the answer was cut short.
+// The parent's side of the codes: `count` of them from `fd` as linear floats, decoded as `encoding` says, a block at
+// a time (no second copy of the image). @return false if the answer was cut short.
 template <class Code>
 bool readCodes(int fd, std::size_t count, ImageEncoding encoding, std::vector<float>& rgb)
 {
-  std::vector<Code> codes(count);
-  if (!readAll(fd, codes.data(), count * sizeof(Code)))
-    return false;
   rgb.resize(count);
-  if constexpr (sizeof(Code) == 1) {
-    // [srgbTable]
-    // 8 bits: 256 possible values, decoded once into a table rather than by pow() for every texel.
-    const std::array<float, 256>& decode = srgbDecodeTable();
-    for (std::size_t i = 0; i < count; ++i)
-      rgb[i] = encoding == ImageEncoding::Srgb ? decode[codes[i]] : float(codes[i]) / 255.0f;
-    // [srgbTable]
-  } else {
-    for (std::size_t i = 0; i < count; ++i) {
-      const float e = float(codes[i]) / 65535.0f;
-      rgb[i] = encoding == ImageEncoding::Srgb ? srgbToLinear(e) : e;
+  std::vector<Code> codes(std::min<std::size_t>(count, 1 << 16));
+  for (std::size_t at = 0; at < count; at += codes.size()) {
+    const std::size_t n = std::min(codes.size(), count - at);
+    if (!readAll(fd, codes.data(), n * sizeof(Code)))
+      return false;
+    float* out = rgb.data() + at;
+    if constexpr (sizeof(Code) == 1) {
+      // [srgbTable]
+      // 8 bits: 256 possible values, decoded once into a table rather than by pow() for every texel.
+      const std::array<float, 256>& decode = srgbDecodeTable();
+      for (std::size_t i = 0; i < n; ++i)
+        out[i] = encoding == ImageEncoding::Srgb ? decode[codes[i]] : float(codes[i]) / 255.0f;
+      // [srgbTable]
+    } else {
+      for (std::size_t i = 0; i < n; ++i) {
+        const float e = float(codes[i]) / 65535.0f;
+        out[i] = encoding == ImageEncoding::Srgb ? srgbToLinear(e) : e;
+      }
     }
   }
   return true;
