@@ -1,22 +1,22 @@
 #!/usr/bin/env bash
-# Fuzzes the scene loader, the mesh files, the texture images (stb_image's formats) and the float images (OpenEXR and
-# PFM) with libFuzzer for SECONDS in all (default 60): a quarter each, or all of it for the scene loader when
-# RAYLIFE_FUZZ_MESH=0. Single process.
+# Fuzzes the scene loader, the mesh files, the texture images (stb_image's formats), the float images (OpenEXR and
+# PFM) and the partial films (raylife_merge's .film files) with libFuzzer for SECONDS in all (default 60): a fifth
+# each, or all of it for the scene loader when RAYLIFE_FUZZ_MESH=0. Single process.
 #   tools/fuzz.sh SECONDS [BUILD_DIR]
-# Builds tests/fuzz/fuzz_scene, fuzz_mesh, fuzz_image and fuzz_float_image in BUILD_DIR (default build-asan/)
-# configured by the asan preset: clang, -fsanitize=fuzzer-no-link,address,undefined, the same build in which
-# `cmake --workflow --preset asan` runs the suite, so CI builds the sanitized code once for both. The scene fuzzer is
-# seeded from scenes/, scenes/stress/ and tests/fuzz/regressions/, the mesh fuzzer from tests/fuzz/mesh_regressions/
-# (and Assimp's test models, where Debian's assimp-testmodels is installed), the image fuzzers from their own
-# regressions folders (and Assimp's PNG and JPEG files); each
-# keeps its growing corpus in BUILD_DIR/corpus*/ between runs, and leaves any crashing or hanging input in
-# BUILD_DIR/crashes/.
+# Builds tests/fuzz/fuzz_scene, fuzz_mesh, fuzz_image, fuzz_float_image and fuzz_film in BUILD_DIR (default
+# build-asan/) configured by the asan preset: clang, -fsanitize=fuzzer-no-link,address,undefined, the same build in
+# which `cmake --workflow --preset asan` runs the suite, so CI builds the sanitized code once for both. The scene
+# fuzzer is seeded from scenes/, scenes/stress/ and tests/fuzz/regressions/, the mesh fuzzer from
+# tests/fuzz/mesh_regressions/ (and Assimp's test models, where Debian's assimp-testmodels is installed), the image
+# and film fuzzers from their own regressions folders (and Assimp's PNG and JPEG files); each keeps its growing
+# corpus in BUILD_DIR/corpus*/ between runs, and leaves any crashing or hanging input in BUILD_DIR/crashes/.
 # The mesh fuzzer checks raylife's handling of mesh files end to end: Assimp runs in a child process of the loader
 # (common/scene/mesh_file.cpp), where a fault of the library itself (Debian's Assimp 5.2 has several on hostile files)
 # must come back as one MeshError line; a crash, a hang or a sanitizer report in raylife's own process stops it.
 # (Coverage inside the child is not seen: the fuzzer steers by raylife's code in the parent.)
 # Exit status: 0 nothing found, 1 the fuzzer found a fault (copy the input into tests/fuzz/regressions/,
-# mesh_regressions/, image_regressions/ or float_image_regressions/ once fixed), 2 bad usage. Needs clang, libclang-rt-14-dev and libomp-14-dev (./setup.sh --fuzz).
+# mesh_regressions/, image_regressions/, float_image_regressions/ or film_regressions/ once fixed), 2 bad usage.
+# Needs clang, libclang-rt-14-dev and libomp-14-dev (./setup.sh --fuzz).
 set -euo pipefail
 
 seconds=${1:-60}
@@ -29,18 +29,17 @@ build=${2:-$root/build-asan}
 
 mkdir -p "$build"
 (cd "$root" && cmake --preset asan -B "$build") >"$build/configure.log" 2>&1 || { cat "$build/configure.log" >&2; exit 1; }
-cmake --build "$build" --target fuzz_scene fuzz_mesh fuzz_image fuzz_float_image -j2
+cmake --build "$build" --target fuzz_scene fuzz_mesh fuzz_image fuzz_float_image fuzz_film -j2
 
 meshOn=1
 [ "${RAYLIFE_FUZZ_MESH:-1}" != 0 ] || meshOn=0
 sceneSeconds=$seconds
 if [ "$meshOn" = 1 ]; then
-  # A quarter each to the scene loader, the mesh files, the texture images and the float images (chapter 14), at
-  # least a second each.
-  sceneSeconds=$(( (seconds + 3) / 4 ))
-  meshSeconds=$(( (seconds - sceneSeconds + 2) / 3 > 0 ? (seconds - sceneSeconds + 2) / 3 : 1 ))
-  imageSeconds=$(( (seconds - sceneSeconds - meshSeconds + 1) / 2 > 0 ? (seconds - sceneSeconds - meshSeconds + 1) / 2 : 1 ))
-  floatSeconds=$(( seconds - sceneSeconds - meshSeconds - imageSeconds > 0 ? seconds - sceneSeconds - meshSeconds - imageSeconds : 1 ))
+  # A fifth each to the scene loader, the mesh files, the texture images, the float images and the films, at least a
+  # second each.
+  share=$(( seconds / 5 > 0 ? seconds / 5 : 1 ))
+  meshSeconds=$share imageSeconds=$share floatSeconds=$share filmSeconds=$share
+  sceneSeconds=$(( seconds - 4 * share > 0 ? seconds - 4 * share : 1 ))
 fi
 
 corpus="$build/corpus"
@@ -101,6 +100,16 @@ if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
   ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_float_image" "$floatCorpus" \
     "$root/tests/fuzz/float_image_regressions" -max_total_time="$floatSeconds" -timeout=10 -rss_limit_mb=2048 \
     -max_len=65536 -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
+fi
+if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
+  # The partial films (raylife_merge's input), seeded with their regressions: shares of renders of chapters 6, 8
+  # (a time budget) and 9.
+  filmCorpus="$build/corpus-film"
+  mkdir -p "$filmCorpus"
+  echo "fuzz.sh: fuzzing the partial films for $filmSeconds s; corpus $filmCorpus, faults into $crashes/"
+  ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_film" "$filmCorpus" "$root/tests/fuzz/film_regressions" \
+    -max_total_time="$filmSeconds" -timeout=10 -rss_limit_mb=2048 -max_len=16384 -print_final_stats=1 \
+    -artifact_prefix="$crashes/" || status=$?
 fi
 if [ "$status" -ne 0 ]; then
   echo "fuzz.sh: the fuzzer found a fault (status $status); inputs in $crashes/:" >&2

@@ -1,5 +1,6 @@
 /// @file printable.h
-/// @brief Text made safe to print on one line, for messages that quote a file's bytes or a library's words.
+/// @brief Text made safe to print on one line, and short, for messages that quote a file's bytes or a library's
+/// words.
 #pragma once
 
 #include <cstddef>
@@ -50,6 +51,18 @@ inline std::string printable(std::string_view text)
     i += n;
   }
   return out;
+}
+
+/// `text` cut to at most `max` bytes (`max` ≥ 4; at a UTF-8 character boundary), with "..." when it was cut: names
+/// taken from a file are quoted in messages, and a message must stay short whatever the file holds.
+inline std::string shorten(std::string_view text, std::size_t max = 40)
+{
+  if (text.size() <= max)
+    return std::string(text);
+  std::size_t cut = max - 3;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80)
+    --cut;
+  return std::string(text.substr(0, cut)) + "...";
 }
 
 } // namespace raylife

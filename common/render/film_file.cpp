@@ -1,5 +1,7 @@
 #include "render/film_file.h"
 
+#include "core/printable.h"
+
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -100,7 +102,7 @@ std::vector<unsigned char> encodeFilm(const PartialFilm& film)
   std::ostringstream text;
   text << kMagic << "\n"
        << "layers pixel\n" // what follows the header; a later version adds "splat" (docs/beyond-one-machine.md)
-       << "chapter " << h.chapter << "\n"
+       << "chapter " << printable(h.chapter) << "\n" // (a name with a newline would end its line early)
        << "scene_hash " << hex(h.sceneHash) << "\n"
        << "width " << h.width << "\n"
        << "height " << h.height << "\n"
@@ -116,7 +118,7 @@ std::vector<unsigned char> encodeFilm(const PartialFilm& film)
        << "rays " << h.rays << "\n"
        << "bad_samples " << h.badSamples << "\n"
        << "seconds " << seconds << "\n"
-       << "scene " << h.scene << "\n" // last: a name may hold spaces, and takes the rest of its line
+       << "scene " << printable(h.scene) << "\n" // last: a name may hold spaces, and takes the rest of its line
        << "end\n";
   const std::string header = text.str();
   std::vector<unsigned char> out(header.begin(), header.end());
@@ -135,6 +137,9 @@ std::vector<unsigned char> encodeFilm(const PartialFilm& film)
 
 namespace {
 
+// Text from the file, for a message: short, and printable on one line.
+std::string quote(std::string_view text) { return printable(shorten(text, 60)); }
+
 // Parses a whole number in [lo, hi] for `key` on `line`, or throws.
 long long number(const std::string& path, int line, const std::string& key, const std::string& text, long long lo,
                  long long hi)
@@ -143,8 +148,8 @@ long long number(const std::string& path, int line, const std::string& key, cons
   char* end = nullptr;
   const long long v = std::strtoll(text.c_str(), &end, 10);
   if (text.empty() || *end != '\0' || errno == ERANGE || v < lo || v > hi)
-    throw FilmError(path + ": line " + std::to_string(line) + ": " + key + " '" + text + "' is not a whole number in [" +
-                    std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    throw FilmError(path + ": line " + std::to_string(line) + ": " + key + " '" + quote(text) +
+                    "' is not a whole number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
   return v;
 }
 
@@ -179,7 +184,7 @@ PartialFilm readFilm(const std::string& path)
     const std::string value = space == std::string::npos ? "" : line.substr(space + 1);
     for (const std::string& s : seen)
       if (s == key)
-        throw FilmError(path + ": line " + std::to_string(lineNumber) + ": '" + key + "' is given twice");
+        throw FilmError(path + ": line " + std::to_string(lineNumber) + ": '" + quote(key) + "' is given twice");
     seen.push_back(key);
     auto bad = [&](const std::string& what) {
       return FilmError(path + ": line " + std::to_string(lineNumber) + ": " + what);
@@ -188,16 +193,16 @@ PartialFilm readFilm(const std::string& path)
       ended = true;
     else if (key == "layers") {
       if (value != "pixel")
-        throw bad("layers '" + value + "': this raylife reads only \"pixel\" (a newer raylife wrote this film?)");
+        throw bad("layers '" + quote(value) + "': this raylife reads only \"pixel\" (a newer raylife wrote this film?)");
     } else if (key == "chapter")
-      h.chapter = value;
+      h.chapter = printable(value); // (as encodeFilm writes them: for messages, and a line each)
     else if (key == "scene")
-      h.scene = value;
+      h.scene = printable(value);
     else if (key == "scene_hash") {
       char* end = nullptr;
       h.sceneHash = std::strtoull(value.c_str(), &end, 16);
       if (value.size() != 16 || *end != '\0')
-        throw bad("scene_hash '" + value + "' is not 16 hexadecimal digits");
+        throw bad("scene_hash '" + quote(value) + "' is not 16 hexadecimal digits");
     } else if (key == "width")
       h.width = int(number(path, lineNumber, key, value, 1, 1 << 26));
     else if (key == "height")
@@ -216,22 +221,22 @@ PartialFilm readFilm(const std::string& path)
       char* end = nullptr;
       h.seconds = std::strtod(value.c_str(), &end);
       if (value.empty() || *end != '\0' || !(h.seconds >= 0) || h.seconds > 1e300)
-        throw bad("seconds '" + value + "' is not a number >= 0");
+        throw bad("seconds '" + quote(value) + "' is not a number >= 0");
     } else if (key == "samples") {
       std::istringstream words(value);
       std::string word;
       while (words >> word) {
         const std::size_t colon = word.find(':');
         if (colon == std::string::npos)
-          throw bad("samples: '" + word + "' is not FIRST:COUNT");
+          throw bad("samples: '" + quote(word) + "' is not FIRST:COUNT");
         const SampleRange r{int(number(path, lineNumber, "a range's first", word.substr(0, colon), 0, kMaxSamplesPerPixel)),
                             int(number(path, lineNumber, "a range's count", word.substr(colon + 1), 1, kMaxSamplesPerPixel))};
         if (!h.samples.empty() && r.first <= h.samples.back().end())
-          throw bad("samples: the ranges must be in order, apart, and not touch (" + word + ")");
+          throw bad("samples: the ranges must be in order, apart, and not touch (" + quote(word) + ")");
         h.samples.push_back(r);
       }
     } else
-      throw bad("unknown key '" + key + "'");
+      throw bad("unknown key '" + quote(key) + "'");
   }
   for (const char* required : {"chapter", "scene_hash", "width", "height", "spp", "seed", "max_depth", "samples",
                                "layers"}) {
@@ -314,14 +319,14 @@ void mergeFilm(PartialFilm& total, const std::string& totalName, const PartialFi
   const FilmHeader& b = part.header;
   auto differ = [&](const std::string& field, const std::string& x, const std::string& y) {
     if (x != y)
-      throw FilmError(partName + " is a share of another render than " + totalName + ": its " + field + " is " + y +
-                      ", not " + x);
+      throw FilmError(partName + " is a share of another render than " + totalName + ": its " + field + " is " +
+                      shorten(y, 200) + ", not " + shorten(x, 200));
   };
   differ("chapter", a.chapter, b.chapter);
   if (a.sceneHash != b.sceneHash) // the names may differ (one file, two paths): the content decides
-    throw FilmError(partName + " is a share of another render than " + totalName + ": its scene file (" + b.scene +
-                    ", hash " + hex(b.sceneHash) + ") is not the same as " + a.scene + " (hash " + hex(a.sceneHash) +
-                    ")");
+    throw FilmError(partName + " is a share of another render than " + totalName + ": its scene file (" +
+                    shorten(b.scene, 200) + ", hash " + hex(b.sceneHash) + ") is not the same as " +
+                    shorten(a.scene, 200) + " (hash " + hex(a.sceneHash) + ")");
   differ("size", std::to_string(a.width) + "x" + std::to_string(a.height),
          std::to_string(b.width) + "x" + std::to_string(b.height));
   differ("spp", std::to_string(a.spp), std::to_string(b.spp));

@@ -192,18 +192,6 @@ std::string lineColumn(std::string_view text, std::size_t offset)
   return std::to_string(line) + ":" + std::to_string(column);
 }
 
-// `text` cut to at most `max` bytes (at a UTF-8 character boundary), with "..." when it was cut: names taken
-// from the file are quoted in messages, and a message must stay short whatever the file holds.
-std::string shorten(std::string_view text, std::size_t max = 40)
-{
-  if (text.size() <= max)
-    return std::string(text);
-  std::size_t cut = max - 3;
-  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80)
-    --cut;
-  return std::string(text.substr(0, cut)) + "...";
-}
-
 // " (did you mean 'x'?)" for the nearest candidate within a small edit distance, else "".
 std::string suggestion(std::string_view word, const std::vector<std::string>& candidates)
 {

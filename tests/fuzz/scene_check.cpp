@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include <unistd.h>
 
@@ -132,17 +133,61 @@ std::string checkImageBytes(std::string_view bytes, ImageEncoding encoding)
   return checkTexels(image);
 }
 
-std::string checkFloatImageBytes(std::string_view bytes, const std::string& extension)
+namespace {
+
+// Writes `bytes` to the file `name` in this process's own folder (made once: the fuzzers and the regression test may
+// run side by side); returns its path.
+std::string writeInput(std::string_view bytes, const std::string& name)
 {
-  // One folder a process, made once: the fuzzer and the regression test may run side by side.
   static const std::filesystem::path folder = [] {
-    std::filesystem::path p =
-        std::filesystem::temp_directory_path() / ("raylife-fuzz-image-" + std::to_string(::getpid()));
+    std::filesystem::path p = std::filesystem::temp_directory_path() / ("raylife-fuzz-" + std::to_string(::getpid()));
     std::filesystem::create_directories(p);
     return p;
   }();
-  const std::string path = (folder / ("fuzz" + extension)).string();
+  const std::string path = (folder / name).string();
   std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+  return path;
+}
+
+} // namespace
+
+std::string checkFilmBytes(std::string_view bytes)
+{
+  const std::string path = writeInput(bytes, "fuzz.film");
+  std::optional<PartialFilm> read;
+  try {
+    read = readFilm(path);
+  } catch (const FilmError& e) {
+    return checkMessage(e.what(), path);
+  }
+  const PartialFilm& film = *read;
+  const FilmHeader& h = film.header;
+  if (h.width < 1 || h.height < 1 || film.film.width() != h.width || film.film.height() != h.height)
+    return "a film whose size does not match its header was accepted";
+  for (std::size_t i = 0; i < h.samples.size(); ++i)
+    if (h.samples[i].count < 1 || (i > 0 && h.samples[i].first <= h.samples[i - 1].end()))
+      return "sample ranges out of order, touching or empty were accepted";
+  if (h.sampleCount() > std::int64_t(kMaxSamplesPerPixel))
+    return "more samples than kMaxSamplesPerPixel were accepted";
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x)
+      if (film.film.samples(x, y) > kMaxSamplesPerPixel)
+        return "a pixel with more than kMaxSamplesPerPixel samples was accepted";
+  (void)film.film.mean();
+  PartialFilm total = film;
+  try {
+    mergeFilm(total, path, film, path);
+    if (!h.samples.empty())
+      return "a film that holds samples merged with itself";
+  } catch (const FilmError& e) {
+    return checkMessage(e.what(), path);
+  }
+  return "";
+}
+
+std::string checkFloatImageBytes(std::string_view bytes, const std::string& extension)
+{
+  const std::string path = writeInput(bytes, "fuzz" + extension);
   TexelImage image;
   try {
     image = readTextureImage(path, ImageEncoding::Linear);

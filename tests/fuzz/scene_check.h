@@ -3,6 +3,7 @@
 /// replays every input the fuzzer ever found.
 #pragma once
 
+#include "render/film_file.h"
 #include "scene/mesh_file.h"
 #include "scene/texture_file.h"
 
@@ -36,5 +37,13 @@ std::string checkImageBytes(std::string_view bytes, ImageEncoding encoding);
 /// in this process), and checks what comes back as checkImageBytes does; the message must start with the file's
 /// path. @return "" when all is well, otherwise what was wrong.
 std::string checkFloatImageBytes(std::string_view bytes, const std::string& extension);
+
+/// Writes `bytes` to a file "fuzz.film" in this process's own folder under the system's temporary folder, reads it
+/// with readFilm (raylife_merge's reader of partial films), and checks what comes back: a FilmError must be one
+/// printable line that starts with the file's path; a film that reads must keep the header's promises (a size of at
+/// least 1 × 1, the film that size, sample ranges in order and apart, at most kMaxSamplesPerPixel samples, in all and
+/// in each pixel), give a mean image, and refuse to merge with itself when it holds samples.
+/// @return "" when all is well, otherwise what was wrong.
+std::string checkFilmBytes(std::string_view bytes);
 
 } // namespace raylife::fuzz

@@ -84,6 +84,16 @@ TEST_CASE("every float image file the float image fuzzer found or was seeded wit
   }
 }
 
+TEST_CASE("every partial film the film fuzzer found or was seeded with is handled")
+{
+  const auto files = filesIn(RAYLIFE_FUZZ_FILM_REGRESSIONS);
+  REQUIRE(files.size() >= 3);
+  for (const auto& file : files) {
+    INFO(file.string());
+    CHECK(raylife::fuzz::checkFilmBytes(readAll(file)) == "");
+  }
+}
+
 TEST_CASE("every mesh file the mesh fuzzer found or was seeded with is handled")
 {
   // The fuzz target's input: the first byte chooses the format (even: OBJ, odd: PLY), the rest is the file.

@@ -115,6 +115,27 @@ TEST_CASE("a missing - overlapping or foreign share is refused with one message 
   CHECK(run(kMerge, {"a.film", "c.film", "-o", "ac.film", "--quiet"}, dir.path()).status == 0);
 }
 
+TEST_CASE("a film of a scene whose file name holds a newline merges - the name escaped in its header")
+{
+  // The name is copied into the film's header, a line of its own: written as it was, the newline ended that line
+  // early, and raylife_merge refused the film ("unknown key").
+  const Chapter& chapter = kChapters[0];
+  const TempDir dir;
+  fs::copy_file(kScenes + "/" + chapter.scene, dir.path() / "a\nb.json");
+  for (const char* share : {"0:4", "4:4"}) {
+    const Outcome o = run(chapter.binary, {"a\nb.json", "--width", "8", "--height", "6", "--spp", "8", "--samples",
+                                           share, "-o", std::string("s") + share[0] + ".film", "--quiet"},
+                          dir.path());
+    REQUIRE(o.status == 0);
+  }
+  CHECK(readFile(dir.path() / "s0.film").find("\nscene a\\nb.json\nend\n") != std::string::npos);
+  const Outcome o = run(kMerge, {"s0.film", "s4.film", "-o", "x.pfm"}, dir.path());
+  INFO(o.err);
+  CHECK(o.status == 0);
+  CHECK(o.err.find("on a\\nb.json:") != std::string::npos);
+  CHECK(fs::exists(dir.path() / "x.pfm"));
+}
+
 TEST_CASE("a share of the samples is checked against the spp before any work")
 {
   const Chapter& chapter = kChapters[1];
