@@ -246,20 +246,22 @@ Grade gradeStatistically(const Image& image, const Image& reference, const Image
   const bool sharePass = g.failedPixels <= allowed;
   const bool meanPass = clampedInMean ? worstMeanZ <= setup.meanCritical : std::abs(worstMeanZ) <= setup.meanCritical;
   g.pass = sharePass && meanPass;
+  // (What is counted: the image's pixels, or the cells of several that they are graded in.)
+  const std::string unit = k == 1 ? "pixels" : "cells";
   g.verdict = std::string(g.pass ? "PASS" : "FAIL") +
-              format(": %.0f of %.0f pixels fail the z-test (allowed %.0f)", double(g.failedPixels),
-                     double(g.pixels), double(allowed)) +
+              format(": %.0f of %.0f ", double(g.failedPixels), double(g.pixels)) + unit +
+              format(" fail the z-test (allowed %.0f)", double(allowed)) +
               (clampedInMean
                    ? format("; the image mean's highest z is %+.2f (fails above %+.2g: one-sided, as the PNG "
                             "clamped some channels, which can only darken it)",
                             worstMeanZ, setup.meanCritical)
                    : format("; the image mean's worst z is %+.2f (fails beyond +-%.2g)", worstMeanZ,
                             setup.meanCritical));
-  g.figures.push_back(format("per channel: fails when |z| > %.3g (two-sided %.2g); per pixel, Sidak over 3 channels: "
-                             "%.2g",
-                             setup.critical, alpha1, alphaPixel));
-  g.figures.push_back(format("allowed failed pixels: the 1 - %.0e quantile of Binomial(%.0f, %.2g)",
-                             setup.falseFailure, double(g.pixels), alphaPixel));
+  g.figures.push_back(format("per channel: fails when |z| > %.3g (two-sided %.2g); per ", setup.critical, alpha1) +
+                      unit.substr(0, unit.size() - 1) + format(", Sidak over 3 channels: %.2g", alphaPixel));
+  g.figures.push_back("allowed failed " + unit +
+                      format(": the 1 - %.0e quantile of Binomial(%.0f, %.2g)", setup.falseFailure,
+                             double(g.pixels), alphaPixel));
   g.figures.push_back("image mean, z per channel (red, green, blue): " + means);
   g.figures.push_back(format("image %.0fx%.0f graded in %.0fx%.0f cells", image.width, image.height, cells.width,
                              cells.height) +
@@ -272,8 +274,8 @@ Grade gradeStatistically(const Image& image, const Image& reference, const Image
                                double(clamped)) +
                         (clampedInMean ? "; so the image mean too (grade the PFM for the full test)" : ""));
   if (!sharePass)
-    g.figures.push_back("too many pixels far from the reference: a wrong value there, or fewer samples than stated "
-                        "(give --spp N)");
+    g.figures.push_back("too many " + unit + " far from the reference: a wrong value there, or fewer samples than "
+                        "stated (give --spp N)");
   if (!meanPass)
     g.figures.push_back("the whole image is brighter or darker than the reference: a bias");
   describeWhere(g, "z");

@@ -21,7 +21,8 @@ struct GradedChapter {
   int height;          ///< in each direction pass too (the chapter's default size is one of them).
   int spp;             ///< Statistical: the chapter's default samples per pixel, assumed when nothing says.
   int referenceSpp;    ///< Statistical: the reference's samples per pixel (0 for Exact).
-  int cell = 1;        ///< Statistical: graded in cells of cell×cell reference pixels (render/grading.h).
+  int cell = 1;        ///< Statistical: graded in cells of cell×cell reference pixels (render/grading.h) at the
+                       ///< default spp; an image of fewer samples in larger cells (main.cpp, cellsFor).
 };
 
 /// The seed of the statistical references: not the chapters' default 0, so that a student's default render
