@@ -193,7 +193,8 @@ PartialFilm readFilm(const std::string& path)
       ended = true;
     else if (key == "layers") {
       if (value != "pixel")
-        throw bad("layers '" + quote(value) + "': this raylife reads only \"pixel\" (a newer raylife wrote this film?)");
+        throw bad("layers '" + quote(value) +
+                  "': this raylife reads only \"pixel\" (a newer raylife wrote this film?)");
     } else if (key == "chapter")
       h.chapter = printable(value); // (as encodeFilm writes them: for messages, and a line each)
     else if (key == "scene")
