@@ -51,65 +51,58 @@ seeds=("$root/scenes")
 [ -d "$root/scenes/stress" ] && seeds+=("$root/scenes/stress")
 seeds+=("$root/tests/fuzz/regressions")
 
-echo "fuzz.sh: fuzzing the scene loader for $sceneSeconds s; corpus $corpus, faults into $crashes/"
+# fuzzOne WHAT TARGET SECONDS MAX_LEN CORPUS [SEED FOLDERS and libFuzzer options...]: one target's run; a fault
+# sets $status. (The readers that run a library in a child process end it with _exit: LeakSanitizer checks raylife's
+# process only.)
 status=0
-ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_scene" "$corpus" "${seeds[@]}" \
-  -dict="$root/tests/fuzz/scene.dict" -max_total_time="$sceneSeconds" -timeout=10 -rss_limit_mb=2048 \
-  -max_len=16384 -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
+fuzzOne() {
+  local what=$1 target=$2 budget=$3 maxLen=$4 corpusDir=$5
+  shift 5
+  mkdir -p "$corpusDir"
+  echo "fuzz.sh: fuzzing the $what for $budget s; corpus $corpusDir, faults into $crashes/"
+  ASAN_OPTIONS=detect_leaks=1 "$build/bin/$target" "$corpusDir" "$@" -max_total_time="$budget" -timeout=10 \
+    -rss_limit_mb=2048 -max_len="$maxLen" -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
+}
+
+fuzzOne "scene loader" fuzz_scene "$sceneSeconds" 16384 "$corpus" "${seeds[@]}" -dict="$root/tests/fuzz/scene.dict"
 
 if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
   # The mesh fuzzer's seeds: its regressions, and small OBJ and PLY files from Assimp's test models (prefixed with the
   # byte that names their format: 'n', even, for OBJ; 'q', odd, for PLY).
   meshCorpus="$build/corpus-mesh"
   meshSeeds="$build/seeds-mesh"
-  mkdir -p "$meshCorpus" "$meshSeeds"
+  mkdir -p "$meshSeeds"
   for f in /usr/share/assimp/models/OBJ/*.obj /usr/share/assimp/models/PLY/*.ply /usr/share/assimp/models/invalid/*; do
     [ -f "$f" ] && [ "$(stat -c %s "$f")" -le 65536 ] || continue
     case "$f" in *.obj) prefix=n ;; *.ply) prefix=q ;; *) continue ;; esac
     { printf '%s' "$prefix"; cat "$f"; } >"$meshSeeds/$(basename "$f").bin"
   done
-  echo "fuzz.sh: fuzzing the mesh files for $meshSeconds s; corpus $meshCorpus, faults into $crashes/"
-  # (Assimp runs in the loader's child process, which ends with _exit: LeakSanitizer checks raylife's process only.)
-  ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_mesh" "$meshCorpus" "$meshSeeds" "$root/tests/fuzz/mesh_regressions" \
-    -max_total_time="$meshSeconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1 \
-    -artifact_prefix="$crashes/" || status=$?
+  fuzzOne "mesh files" fuzz_mesh "$meshSeconds" 65536 "$meshCorpus" "$meshSeeds" "$root/tests/fuzz/mesh_regressions"
 fi
 if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
   # The image fuzzer's seeds: its regressions, and small PNG and JPEG files from Assimp's test models ('n', even:
   # decoded as sRGB).
   imageCorpus="$build/corpus-image"
   imageSeeds="$build/seeds-image"
-  mkdir -p "$imageCorpus" "$imageSeeds"
+  mkdir -p "$imageSeeds"
   for f in /usr/share/assimp/models/*/*.png /usr/share/assimp/models/*/*.jpg; do
     [ -f "$f" ] && [ "$(stat -c %s "$f")" -le 65536 ] || continue
     { printf 'n'; cat "$f"; } >"$imageSeeds/$(basename "$f").bin"
   done
-  echo "fuzz.sh: fuzzing the texture images for $imageSeconds s; corpus $imageCorpus, faults into $crashes/"
-  # (stb_image runs in the reader's child process, which ends with _exit.)
-  ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_image" "$imageCorpus" "$imageSeeds" \
-    "$root/tests/fuzz/image_regressions" -max_total_time="$imageSeconds" -timeout=10 -rss_limit_mb=2048 \
-    -max_len=65536 -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
+  fuzzOne "texture images" fuzz_image "$imageSeconds" 65536 "$imageCorpus" "$imageSeeds" \
+    "$root/tests/fuzz/image_regressions"
 fi
 if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
   # The float images: OpenEXR and raylife's PFM reader, in this process. Seeded with their regressions, which hold
   # small files of each of OpenEXR's compressions, scan lines and tiles, and PFMs (the first byte: even for OpenEXR,
   # odd for PFM).
-  floatCorpus="$build/corpus-float-image"
-  mkdir -p "$floatCorpus"
-  echo "fuzz.sh: fuzzing the float images for $floatSeconds s; corpus $floatCorpus, faults into $crashes/"
-  ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_float_image" "$floatCorpus" \
-    "$root/tests/fuzz/float_image_regressions" -max_total_time="$floatSeconds" -timeout=10 -rss_limit_mb=2048 \
-    -max_len=65536 -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
+  fuzzOne "float images" fuzz_float_image "$floatSeconds" 65536 "$build/corpus-float-image" \
+    "$root/tests/fuzz/float_image_regressions"
 fi
 if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
   # The partial films (raylife_merge's input), seeded with their regressions: shares of renders of chapters 6, 8
   # (a time budget) and 9.
-  filmCorpus="$build/corpus-film"
-  mkdir -p "$filmCorpus"
-  echo "fuzz.sh: fuzzing the partial films for $filmSeconds s; corpus $filmCorpus, faults into $crashes/"
-  ASAN_OPTIONS=detect_leaks=1 "$build/bin/fuzz_film" "$filmCorpus" "$root/tests/fuzz/film_regressions" \
-    -max_total_time="$filmSeconds" -timeout=10 -rss_limit_mb=2048 -max_len=16384 -print_final_stats=1 \
-    -artifact_prefix="$crashes/" || status=$?
+  fuzzOne "partial films" fuzz_film "$filmSeconds" 16384 "$build/corpus-film" "$root/tests/fuzz/film_regressions"
 fi
 if [ "$status" -ne 0 ]; then
   echo "fuzz.sh: the fuzzer found a fault (status $status); inputs in $crashes/:" >&2
