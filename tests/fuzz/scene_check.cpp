@@ -135,16 +135,26 @@ std::string checkImageBytes(std::string_view bytes, ImageEncoding encoding)
 
 namespace {
 
-// Writes `bytes` to the file `name` in this process's own folder (made once: the fuzzers and the regression test may
-// run side by side); returns its path.
+// This process's own folder for the inputs that readers take as files (the fuzzers and the regression test may run
+// side by side), made on first use and removed at exit.
+struct InputFolder {
+  std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("raylife-fuzz-" + std::to_string(::getpid()));
+  InputFolder() { std::filesystem::create_directories(path); }
+  InputFolder(const InputFolder&) = delete;
+  InputFolder& operator=(const InputFolder&) = delete;
+  ~InputFolder()
+  {
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+};
+
+// Writes `bytes` to the file `name` in the process's input folder; returns its path.
 std::string writeInput(std::string_view bytes, const std::string& name)
 {
-  static const std::filesystem::path folder = [] {
-    std::filesystem::path p = std::filesystem::temp_directory_path() / ("raylife-fuzz-" + std::to_string(::getpid()));
-    std::filesystem::create_directories(p);
-    return p;
-  }();
-  const std::string path = (folder / name).string();
+  static const InputFolder folder;
+  const std::string path = (folder.path / name).string();
   std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
   return path;
 }
