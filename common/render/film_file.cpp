@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
@@ -17,6 +18,9 @@ namespace {
 constexpr const char* kMagic = "raylife film 1";
 // Bytes per pixel in the payload: six Fixed128 sums, then (in a second block) one uint32 count.
 constexpr std::size_t kSumBytes = 6 * 16;
+// More bytes than a film's header can take: the magic, fourteen keys (each given once, "end" among them), a line of
+// at most 4,097 bytes each.
+constexpr std::size_t kHeaderMost = 1 << 16;
 
 void putWord(std::vector<unsigned char>& out, std::uint64_t v, int bytes)
 {
@@ -160,7 +164,12 @@ PartialFilm readFilm(const std::string& path)
   std::ifstream in(path, std::ios::binary);
   if (!in)
     throw FilmError(path + ": cannot open: " + std::strerror(errno));
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // The header first, from the file's first kHeaderMost bytes (a valid header is shorter); the pixel data, whose
+  // length the header gives, only once the file is known to hold that much. (Read whole, a 10 GB file that is no
+  // film took 10 GB of memory before its first line was looked at, and a film's pixels were held twice.)
+  std::string bytes(kHeaderMost, '\0');
+  in.read(bytes.data(), std::streamsize(bytes.size()));
+  bytes.resize(std::size_t(in.gcount()));
   if (bytes.compare(0, std::strlen(kMagic) + 1, std::string(kMagic) + "\n") != 0)
     throw FilmError(path + ": not a raylife film (it does not start with \"" + kMagic + "\")");
 
@@ -255,26 +264,58 @@ PartialFilm readFilm(const std::string& path)
 
   const std::size_t pixels = std::size_t(h.width) * std::size_t(h.height);
   const std::size_t expected = pixels * (kSumBytes + 4);
-  if (bytes.size() - at != expected)
-    throw FilmError(path + ": the pixel data is " + std::to_string(bytes.size() - at) + " bytes, but a " +
-                    std::to_string(h.width) + "x" + std::to_string(h.height) + " film has " +
-                    std::to_string(expected) + (bytes.size() - at < expected ? " (truncated)" : ""));
-  const auto* p = reinterpret_cast<const unsigned char*>(bytes.data() + at);
+  // The pixel data's length: the file's size past the header, or, for a pipe, what it holds, read to its end.
+  std::error_code error;
+  const bool regular = std::filesystem::is_regular_file(path, error);
+  const std::uintmax_t fileSize = regular ? std::filesystem::file_size(path, error) : 0;
+  if (regular && !error) {
+    const std::uintmax_t have = fileSize > at ? fileSize - at : 0;
+    if (have != expected)
+      throw FilmError(path + ": the pixel data is " + std::to_string(have) + " bytes, but a " +
+                      std::to_string(h.width) + "x" + std::to_string(h.height) + " film has " +
+                      std::to_string(expected) + (have < expected ? " (truncated)" : ""));
+  } else {
+    bytes.append(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    if (bytes.size() - at != expected)
+      throw FilmError(path + ": the pixel data is " + std::to_string(bytes.size() - at) + " bytes, but a " +
+                      std::to_string(h.width) + "x" + std::to_string(h.height) + " film has " +
+                      std::to_string(expected) + (bytes.size() - at < expected ? " (truncated)" : ""));
+  }
+  // The pixel data a block at a time: what the header's read took of it, then the rest of the file.
+  std::size_t blockAt = at;
+  std::vector<unsigned char> block;
+  auto next = [&](std::size_t n) -> const unsigned char* {
+    block.resize(n);
+    const std::size_t fromBytes = std::min(n, bytes.size() - blockAt);
+    std::memcpy(block.data(), bytes.data() + blockAt, fromBytes);
+    blockAt += fromBytes;
+    if (fromBytes < n && !in.read(reinterpret_cast<char*>(block.data() + fromBytes), std::streamsize(n - fromBytes)))
+      throw FilmError(path + ": cannot read its pixel data (the file changed while it was read?)");
+    return block.data();
+  };
+  constexpr std::size_t kBlockPixels = 1 << 14;
   std::vector<Film::Sums> sums(pixels);
-  for (Film::Sums& s : sums)
-    for (Fixed128* words : {s.sum, s.squares})
-      for (int c = 0; c < 3; ++c) {
-        words[c].lo = getWord(p, 8);
-        words[c].hi = getWord(p + 8, 8);
-        p += 16;
-      }
+  for (std::size_t first = 0; first < pixels; first += kBlockPixels) {
+    const std::size_t n = std::min(kBlockPixels, pixels - first);
+    const unsigned char* p = next(n * kSumBytes);
+    for (std::size_t i = first; i < first + n; ++i)
+      for (Fixed128* words : {sums[i].sum, sums[i].squares})
+        for (int c = 0; c < 3; ++c) {
+          words[c].lo = getWord(p, 8);
+          words[c].hi = getWord(p + 8, 8);
+          p += 16;
+        }
+  }
   std::vector<std::uint32_t> counts(pixels);
-  for (std::uint32_t& n : counts) {
-    n = std::uint32_t(getWord(p, 4));
-    p += 4;
-    if (n > kMaxSamplesPerPixel)
-      throw FilmError(path + ": a pixel holds " + std::to_string(n) + " samples, more than " +
-                      std::to_string(kMaxSamplesPerPixel));
+  for (std::size_t first = 0; first < pixels; first += kBlockPixels) {
+    const std::size_t n = std::min(kBlockPixels, pixels - first);
+    const unsigned char* p = next(n * 4);
+    for (std::size_t i = first; i < first + n; ++i, p += 4) {
+      counts[i] = std::uint32_t(getWord(p, 4));
+      if (counts[i] > kMaxSamplesPerPixel)
+        throw FilmError(path + ": a pixel holds " + std::to_string(counts[i]) + " samples, more than " +
+                        std::to_string(kMaxSamplesPerPixel));
+    }
   }
   return {h, Film(h.width, h.height, std::move(sums), std::move(counts))};
 }

@@ -2,6 +2,7 @@
 // tests of the BVH and of the sphere lanes (tests/bvh).
 #pragma once
 
+#include "../sanitizers.h"
 #include "geometry/ray.h"
 #include "core/rng.h"
 #include "geometry/sphere.h"
@@ -16,18 +17,6 @@
 namespace raylife::testing {
 
 // ---- How many rays a check sends ------------------------------------------------------------------------------
-#if defined(__SANITIZE_ADDRESS__)
-inline constexpr bool kUnderAddressSanitizer = true; // GCC's -fsanitize=address
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-inline constexpr bool kUnderAddressSanitizer = true; // clang's
-#else
-inline constexpr bool kUnderAddressSanitizer = false;
-#endif
-#else
-inline constexpr bool kUnderAddressSanitizer = false;
-#endif
-
 // The rays an agreement check sends: all of them, or a tenth under AddressSanitizer. There the million-ray checks of
 // the tree against the brute-force loop are about six times slower and took half of CI's sanitizer tests (190 of
 // 383 s); a tenth still walks every kind of scene and ray through the instrumented code, and the release suite sends

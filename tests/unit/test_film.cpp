@@ -5,6 +5,7 @@
 #include "render/render_loop.h"
 #include "core/rng.h"
 #include "small_scene.h"
+#include "../sanitizers.h"
 
 #include <catch2/catch.hpp>
 
@@ -17,7 +18,11 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <thread>
 
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 using namespace raylife;
@@ -251,6 +256,79 @@ TEST_CASE("a partial film survives its file bit for bit and a damaged file is re
   refused(replaced("layers pixel\n", "layers pixel splat\n"), "reads only \"pixel\"");
   refused(replaced("width 37\n", "width 38\n"), "but a 38x23 film has");
   std::filesystem::remove(path);
+}
+
+TEST_CASE("a film is read a block at a time, from a file or a pipe, and a big file that is no film is refused at once")
+{
+  // A film of 211 × 97 pixels: its pixel data (2 MB) spans the header's first read and many blocks.
+  std::mt19937_64 random(11);
+  const int width = 211, height = 97;
+  std::vector<Film::Sums> sums(std::size_t(width) * height);
+  std::vector<std::uint32_t> counts(sums.size());
+  for (std::size_t i = 0; i < sums.size(); ++i) {
+    for (Fixed128* words : {sums[i].sum, sums[i].squares})
+      for (int c = 0; c < 3; ++c)
+        words[c] = Fixed128{random(), random()};
+    counts[i] = std::uint32_t(random() % 1000);
+  }
+  PartialFilm film{{}, Film(width, height, sums, counts)};
+  film.header.chapter = "step06_path_tracer";
+  film.header.width = width;
+  film.header.height = height;
+  film.header.spp = 4;
+  film.header.samples = {{0, 4}};
+  const std::vector<unsigned char> bytes = encodeFilm(film);
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("raylife_test_film_blocks_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string file = (dir / "big.film").string();
+  std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+  CHECK(sameSums(readFilm(file).film, film.film));
+
+  // Through a pipe (no size to ask for): read to its end.
+  const std::string fifo = (dir / "pipe.film").string();
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  std::thread writer([&] {
+    std::ofstream(fifo, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                                std::streamsize(bytes.size()));
+  });
+  const PartialFilm piped = readFilm(fifo);
+  writer.join();
+  CHECK(sameSums(piped.film, film.film));
+
+  // A 4 GiB file of zeros (sparse: it takes no disk) is no film: refused from its first line, by a process that may
+  // not take 256 MiB more memory. (Read whole first, it ran out.) Not under AddressSanitizer, whose shadow memory
+  // needs more address space than any such limit leaves.
+  if (raylife::testing::kUnderAddressSanitizer) {
+    std::filesystem::remove_all(dir);
+    return;
+  }
+  const std::string zeros = (dir / "zeros.film").string();
+  std::ofstream{zeros}.close();
+  std::filesystem::resize_file(zeros, std::uintmax_t(4) << 30);
+  const pid_t child = ::fork();
+  REQUIRE(child >= 0);
+  if (child == 0) {
+    rlimit limit{};
+    std::size_t resident = 0;
+    std::ifstream("/proc/self/statm") >> resident; // (the first number: the address space, in pages)
+    limit.rlim_cur = limit.rlim_max = rlim_t(resident) * rlim_t(::sysconf(_SC_PAGESIZE)) + (rlim_t(256) << 20);
+    ::setrlimit(RLIMIT_AS, &limit);
+    int code = 1;
+    try {
+      readFilm(zeros);
+    } catch (const FilmError& e) {
+      code = std::string(e.what()).find("not a raylife film") != std::string::npos ? 0 : 2;
+    } catch (...) {
+      code = 3;
+    }
+    ::_exit(code);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(child, &status, 0) == child);
+  CHECK(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("merging films checks that they are shares of one render and that no sample comes twice")
