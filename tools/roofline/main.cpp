@@ -6,6 +6,8 @@
 //   1. read bandwidth: a sum over an array of Real of 512 MiB (memory), 256 KiB (the L2 cache) and 16 KiB (L1);
 //   2. the peak rate of multiplies and adds (none fused: the build says -ffp-contract=off, as the kernels do) in
 //      each instruction set the kernels run here (simdTargets(), forced in turn);
+//   2b. the price of a gather (a vector of lanes loaded from scattered places in a table in the L1 cache) against a
+//      contiguous load, in each instruction set: what a walk of a tree with one ray per lane would pay at each step;
 //   3. nearestSpheres (smallpt's nine spheres; rays from random points of the room in random directions) and
 //      diffuseBounces (random normals and directions, uniform numbers) in each instruction set: rays per second,
 //      the floating-point operations and bytes per ray counted from the kernels' source, hence the arithmetic
@@ -95,6 +97,42 @@ double peakGflops(const Settings& s)
   const std::size_t iterations = s.quick ? 1'000'000 : 20'000'000;
   const double seconds = bestSeconds([&] { gSink = roofline::mulAddChains(iterations); }, s.budget, s.minRuns);
   return roofline::flopsPerIteration() * double(iterations) / seconds * 1e-9;
+}
+
+// --- 2b. Gathers --------------------------------------------------------------------------------------------------
+
+// Nanoseconds a gather of one vector takes and a contiguous load of one vector (the sum over an array), both from a
+// table of 16 KiB (the L1 cache), in the instruction set in use: what a walk of a tree with one ray per lane pays
+// at each step for each number of its nodes (their boxes lie wherever the rays' nodes are), against a load of rays
+// stored side by side.
+struct GatherCost {
+  double gather = 0, load = 0; // nanoseconds a vector
+};
+GatherCost gatherCost(const Settings& s)
+{
+  const std::size_t tableSize = (16 << 10) / sizeof(Real), n = s.quick ? (std::size_t(1) << 16) : (std::size_t(1) << 20);
+  hwy::AlignedFreeUniquePtr<Real[]> table = hwy::AllocateAligned<Real>(tableSize);
+  hwy::AlignedFreeUniquePtr<roofline::GatherIndex[]> index = hwy::AllocateAligned<roofline::GatherIndex>(n);
+  for (std::size_t i = 0; i < tableSize; ++i)
+    table[i] = Real(i % 7) * Real(0.25);
+  std::mt19937_64 rng(3);
+  for (std::size_t k = 0; k < n; ++k)
+    index[k] = roofline::GatherIndex(rng() % tableSize);
+  const double vectors = double(n) / double(roofline::gatherLanes());
+  GatherCost cost;
+  cost.gather = bestSeconds([&] { gSink = roofline::gatherSum(table.get(), index.get(), n); }, s.budget, s.minRuns) /
+                vectors * 1e9;
+  const std::size_t passes = n / tableSize;
+  cost.load = bestSeconds(
+                [&] {
+                  Real sum = 0;
+                  for (std::size_t p = 0; p < passes; ++p)
+                    sum += roofline::sumArray(table.get(), tableSize);
+                  gSink = sum;
+                },
+                s.budget, s.minRuns) /
+              (double(passes * tableSize) / double(roofline::gatherLanes())) * 1e9;
+  return cost;
 }
 
 // --- 3. The kernels -----------------------------------------------------------------------------------------------
@@ -356,6 +394,19 @@ int main(int argc, char** argv)
             << (sizeof(Real) == 8 ? "float (cmake --preset float) every vector holds twice the lanes"
                                   : "double every vector holds half the lanes")
             << ".)\n\n";
+
+  // 2b. Gathers, per instruction set.
+  std::cout << "## Gathers (a vector of lanes loaded from scattered places in a 16 KiB table, the L1 cache)\n\n"
+            << "| instruction set | lanes | ns a gather | ns a contiguous load | gather / load |\n"
+               "|---|---:|---:|---:|---:|\n";
+  for (const SimdTarget& t : targets) {
+    forceSimdTarget(t.id);
+    const GatherCost g = gatherCost(s);
+    std::cout << "| " << t.name << " | " << t.lanes << " | " << sig3(g.gather) << " | " << sig3(g.load) << " | "
+              << sig3(g.gather / g.load) << " |\n";
+  }
+  forceSimdTarget(0);
+  std::cout << "\n";
 
   // 3. The kernels, in memory and in the cache.
   const SphereList spheres = SphereList::from(smallptSpheres());

@@ -68,6 +68,26 @@ Real SumArray(const Real* v, std::size_t n)
   return hn::GetLane(hn::SumOfLanes(d, s[0]));
 }
 
+// Four partial sums, so that a gather's add waits for the one four gathers before it; the gathers themselves
+// depend on nothing but their indices.
+Real GatherSum(const Real* table, const GatherIndex* index, std::size_t n)
+{
+  const D d;
+  const hn::RebindToSigned<D> di;
+  const std::size_t lanes = hn::Lanes(d);
+  V s[4];
+  for (V& x : s)
+    x = hn::Zero(d);
+  for (std::size_t i = 0; i < n; i += 4 * lanes)
+    for (std::size_t j = 0; j < 4; ++j)
+      s[j] = hn::Add(s[j], hn::GatherIndex(d, table, hn::Load(di, index + i + j * lanes)));
+  for (std::size_t j = 1; j < 4; ++j)
+    s[0] = hn::Add(s[0], s[j]);
+  return hn::GetLane(hn::SumOfLanes(d, s[0]));
+}
+
+std::size_t GatherLanes() { return hn::Lanes(D()); }
+
 } // namespace HWY_NAMESPACE
 } // namespace raylife::roofline
 HWY_AFTER_NAMESPACE();
@@ -78,6 +98,8 @@ namespace raylife::roofline {
 HWY_EXPORT(MulAddChains);
 HWY_EXPORT(FlopsPerIteration);
 HWY_EXPORT(SumArray);
+HWY_EXPORT(GatherSum);
+HWY_EXPORT(GatherLanes);
 
 namespace {
 // The constants of the chains, read through a volatile: the compiler cannot know them.
@@ -87,6 +109,11 @@ volatile Real gF = Real(1.0009765625), gG = Real(1) / Real(1.0009765625), gH = R
 Real mulAddChains(std::size_t iterations) { return HWY_DYNAMIC_DISPATCH(MulAddChains)(iterations, gF, gG, gH); }
 double flopsPerIteration() { return double(HWY_DYNAMIC_DISPATCH(FlopsPerIteration)()); }
 Real sumArray(const Real* v, std::size_t n) { return HWY_DYNAMIC_DISPATCH(SumArray)(v, n); }
+Real gatherSum(const Real* table, const GatherIndex* index, std::size_t n)
+{
+  return HWY_DYNAMIC_DISPATCH(GatherSum)(table, index, n);
+}
+std::size_t gatherLanes() { return HWY_DYNAMIC_DISPATCH(GatherLanes)(); }
 
 } // namespace raylife::roofline
 #endif
