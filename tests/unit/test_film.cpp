@@ -310,9 +310,9 @@ TEST_CASE("a film is read a block at a time, from a file or a pipe, and a big fi
   REQUIRE(child >= 0);
   if (child == 0) {
     rlimit limit{};
-    std::size_t resident = 0;
-    std::ifstream("/proc/self/statm") >> resident; // (the first number: the address space, in pages)
-    limit.rlim_cur = limit.rlim_max = rlim_t(resident) * rlim_t(::sysconf(_SC_PAGESIZE)) + (rlim_t(256) << 20);
+    std::size_t addressPages = 0;
+    std::ifstream("/proc/self/statm") >> addressPages; // (its first number: the address space, in pages)
+    limit.rlim_cur = limit.rlim_max = rlim_t(addressPages) * rlim_t(::sysconf(_SC_PAGESIZE)) + (rlim_t(256) << 20);
     ::setrlimit(RLIMIT_AS, &limit);
     int code = 1;
     try {
