@@ -7,7 +7,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <limits>
 #include <sstream>
 
@@ -264,7 +263,8 @@ PartialFilm readFilm(const std::string& path)
 
   const std::size_t pixels = std::size_t(h.width) * std::size_t(h.height);
   const std::size_t expected = pixels * (kSumBytes + 4);
-  // The pixel data's length: the file's size past the header, or, for a pipe, what it holds, read to its end.
+  // The pixel data's length: the file's size past the header, or, for a pipe, what it holds (read up to a byte past
+  // what the header promises).
   std::error_code error;
   const bool regular = std::filesystem::is_regular_file(path, error);
   const std::uintmax_t fileSize = regular ? std::filesystem::file_size(path, error) : 0;
@@ -275,11 +275,22 @@ PartialFilm readFilm(const std::string& path)
                       std::to_string(h.width) + "x" + std::to_string(h.height) + " film has " +
                       std::to_string(expected) + (have < expected ? " (truncated)" : ""));
   } else {
-    bytes.append(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    if (bytes.size() - at != expected)
-      throw FilmError(path + ": the pixel data is " + std::to_string(bytes.size() - at) + " bytes, but a " +
-                      std::to_string(h.width) + "x" + std::to_string(h.height) + " film has " +
-                      std::to_string(expected) + (bytes.size() - at < expected ? " (truncated)" : ""));
+    // Up to one byte more than the header promises: a pipe that goes on and on cannot exhaust memory.
+    const std::size_t most = at + expected + 1;
+    char buffer[1 << 16];
+    while (bytes.size() < most) {
+      in.read(buffer, std::streamsize(std::min(sizeof buffer, most - bytes.size())));
+      if (in.gcount() == 0)
+        break;
+      bytes.append(buffer, std::size_t(in.gcount()));
+    }
+    const std::string size = std::to_string(h.width) + "x" + std::to_string(h.height);
+    if (bytes.size() - at > expected)
+      throw FilmError(path + ": the pixel data is longer than the " + std::to_string(expected) + " bytes of a " + size +
+                      " film");
+    if (bytes.size() - at < expected)
+      throw FilmError(path + ": the pixel data is " + std::to_string(bytes.size() - at) + " bytes, but a " + size +
+                      " film has " + std::to_string(expected) + " (truncated)");
   }
   // The pixel data a block at a time: what the header's read took of it, then the rest of the file.
   std::size_t blockAt = at;

@@ -13,6 +13,7 @@
 #include <array>
 #include <bit>
 #include <cmath>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +21,7 @@
 #include <string>
 #include <thread>
 
+#include <fcntl.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -296,9 +298,10 @@ TEST_CASE("a film is read a block at a time, from a file or a pipe, and a big fi
   writer.join();
   CHECK(sameSums(piped.film, film.film));
 
-  // A 4 GiB file of zeros (sparse: it takes no disk) is no film: refused from its first line, by a process that may
-  // not take 256 MiB more memory. (Read whole first, it ran out.) Not under AddressSanitizer, whose shadow memory
-  // needs more address space than any such limit leaves.
+  // Two inputs that no film reader should hold in memory, read by a process that may not take 256 MiB more (read
+  // whole, both ran out): a 4 GiB file of zeros (sparse: it takes no disk), refused from its first line; and a pipe
+  // whose film header is followed by bytes without end, refused a byte after the header's length. Not under
+  // AddressSanitizer, whose shadow memory needs more address space than any such limit leaves.
   if (raylife::testing::kUnderAddressSanitizer) {
     std::filesystem::remove_all(dir);
     return;
@@ -306,6 +309,8 @@ TEST_CASE("a film is read a block at a time, from a file or a pipe, and a big fi
   const std::string zeros = (dir / "zeros.film").string();
   std::ofstream{zeros}.close();
   std::filesystem::resize_file(zeros, std::uintmax_t(4) << 30);
+  const std::string endless = (dir / "endless.film").string();
+  REQUIRE(::mkfifo(endless.c_str(), 0600) == 0);
   const pid_t child = ::fork();
   REQUIRE(child >= 0);
   if (child == 0) {
@@ -314,14 +319,33 @@ TEST_CASE("a film is read a block at a time, from a file or a pipe, and a big fi
     std::ifstream("/proc/self/statm") >> addressPages; // (its first number: the address space, in pages)
     limit.rlim_cur = limit.rlim_max = rlim_t(addressPages) * rlim_t(::sysconf(_SC_PAGESIZE)) + (rlim_t(256) << 20);
     ::setrlimit(RLIMIT_AS, &limit);
-    int code = 1;
-    try {
-      readFilm(zeros);
-    } catch (const FilmError& e) {
-      code = std::string(e.what()).find("not a raylife film") != std::string::npos ? 0 : 2;
-    } catch (...) {
-      code = 3;
+    // The endless pipe's writer: the film, then zeros until the reader hangs up (SIGPIPE ends it).
+    const pid_t feeder = ::fork();
+    if (feeder == 0) {
+      const int fd = ::open(endless.c_str(), O_WRONLY);
+      const std::vector<char> more(1 << 16, 0);
+      bool open = fd >= 0 && ::write(fd, bytes.data(), bytes.size()) == ssize_t(bytes.size());
+      while (open)
+        open = ::write(fd, more.data(), more.size()) > 0;
+      ::_exit(0);
     }
+    auto refused = [](const std::string& path, const std::string& fault) {
+      try {
+        readFilm(path);
+      } catch (const FilmError& e) {
+        return std::string(e.what()).find(fault) != std::string::npos ? 0 : 2;
+      } catch (...) {
+        return 3;
+      }
+      return 1;
+    };
+    int code = refused(zeros, "not a raylife film");
+    if (code == 0) {
+      const int second = refused(endless, "the pixel data is longer than the");
+      code = second == 0 ? 0 : 10 + second;
+    }
+    ::kill(feeder, SIGKILL); // (already ended by SIGPIPE, unless the first check failed and it waits for a reader)
+    ::waitpid(feeder, nullptr, 0);
     ::_exit(code);
   }
   int status = 0;
