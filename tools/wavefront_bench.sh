@@ -51,6 +51,7 @@ pair() {
   local -a as=() bs=() rs=() ma=() mb=()
   if [ "${STATS:-0}" = 1 ]; then statsA=(--stats "$out/a.json") statsB=(--stats "$out/b.json"); fi
   for ((i = 0; i < runs; ++i)); do
+    rm -f "$out/a.json" "$out/b.json" # (a run that writes none stops the bench, rather than repeat the last figure)
     # shellcheck disable=SC2086 # the arguments are words
     ta=$(seconds "$a" $argsA "${statsA[@]}")
     # shellcheck disable=SC2086

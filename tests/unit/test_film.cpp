@@ -284,7 +284,8 @@ TEST_CASE("a film is read a block at a time, from a file or a pipe, and a big fi
       std::filesystem::temp_directory_path() / ("raylife_test_film_blocks_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string file = (dir / "big.film").string();
-  std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+  std::ofstream(file, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
   CHECK(sameSums(readFilm(file).film, film.film));
 
   // Through a pipe (no size to ask for): read to its end.

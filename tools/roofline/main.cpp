@@ -110,7 +110,8 @@ struct GatherCost {
 };
 GatherCost gatherCost(const Settings& s)
 {
-  const std::size_t tableSize = (16 << 10) / sizeof(Real), n = s.quick ? (std::size_t(1) << 16) : (std::size_t(1) << 20);
+  const std::size_t tableSize = (16 << 10) / sizeof(Real);
+  const std::size_t n = s.quick ? (std::size_t(1) << 16) : (std::size_t(1) << 20);
   hwy::AlignedFreeUniquePtr<Real[]> table = hwy::AllocateAligned<Real>(tableSize);
   hwy::AlignedFreeUniquePtr<roofline::GatherIndex[]> index = hwy::AllocateAligned<roofline::GatherIndex>(n);
   for (std::size_t i = 0; i < tableSize; ++i)
