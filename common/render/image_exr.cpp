@@ -13,7 +13,6 @@
 #include <OpenEXR/ImfTileDescription.h>
 
 #include <algorithm>
-#include <cstdint>
 #include <cstring>
 
 namespace raylife {
@@ -83,18 +82,17 @@ Image readExr(const std::string& path)
     const Imf::ChannelList& channels = file.header().channels();
     // A tiled file is read through buffers its header sizes: whole rows of tiles (OpenEXR's InputFile keeps the data
     // window's width times a tile's height, for each channel read) and whole tiles of every channel. Refused first
-    // where those are far beyond the image itself: a crafted 2.8 KB file of 16x8 pixels asked for 2 GB that way
-    // (found by the fuzzer; not touched, the memory was never resident, but nothing bounded it).
+    // where those are far beyond the image itself: the fuzzer found a 2.8 KB file of 16x8 pixels that asked for 2 GB
+    // that way. (In double: a tile's two sides, each up to 2^31, times its bytes would overflow 64 bits.)
     if (file.header().hasTileDescription()) {
       const Imf::TileDescription& tiles = file.header().tileDescription();
-      std::uint64_t bytesPerPixel = 0;
+      double bytesPerPixel = 0;
       for (auto c = channels.begin(); c != channels.end(); ++c)
         bytesPerPixel += c.channel().type == Imf::HALF ? 2 : 4;
-      const std::uint64_t pixelBytes = std::max<std::uint64_t>(bytesPerPixel, 3 * sizeof(float));
-      const std::uint64_t imageBytes = std::uint64_t(width) * std::uint64_t(height) * pixelBytes;
-      const std::uint64_t allowed = std::max<std::uint64_t>(4 * imageBytes, std::uint64_t(64) << 20);
-      const std::uint64_t rowBytes = std::uint64_t(width) * tiles.ySize * 3 * sizeof(float);
-      const std::uint64_t tileBytes = std::uint64_t(tiles.xSize) * tiles.ySize * pixelBytes;
+      const double pixelBytes = std::max(bytesPerPixel, double(3 * sizeof(float)));
+      const double allowed = std::max(4 * double(width) * double(height) * pixelBytes, double(64 << 20));
+      const double rowBytes = double(width) * double(tiles.ySize) * double(3 * sizeof(float));
+      const double tileBytes = double(tiles.xSize) * double(tiles.ySize) * pixelBytes;
       if (rowBytes > allowed || tileBytes > allowed)
         throw ImageIoError(path + ": the EXR's tiles of " + std::to_string(tiles.xSize) + "x" +
                            std::to_string(tiles.ySize) + " pixels are far larger than its " + std::to_string(width) +
