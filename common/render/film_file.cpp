@@ -268,13 +268,8 @@ PartialFilm readFilm(const std::string& path)
   std::error_code error;
   const bool regular = std::filesystem::is_regular_file(path, error);
   const std::uintmax_t fileSize = regular ? std::filesystem::file_size(path, error) : 0;
-  if (regular && !error) {
-    const std::uintmax_t have = fileSize > at ? fileSize - at : 0;
-    if (have != expected)
-      throw FilmError(path + ": the pixel data is " + std::to_string(have) + " bytes, but a " +
-                      std::to_string(h.width) + "x" + std::to_string(h.height) + " film has " +
-                      std::to_string(expected) + (have < expected ? " (truncated)" : ""));
-  } else {
+  const bool sized = regular && !error;
+  if (!sized) {
     // Up to one byte more than the header promises: a pipe that goes on and on cannot exhaust memory.
     const std::size_t most = at + expected + 1;
     char buffer[1 << 16];
@@ -284,14 +279,15 @@ PartialFilm readFilm(const std::string& path)
         break;
       bytes.append(buffer, std::size_t(in.gcount()));
     }
-    const std::string size = std::to_string(h.width) + "x" + std::to_string(h.height);
-    if (bytes.size() - at > expected)
-      throw FilmError(path + ": the pixel data is longer than the " + std::to_string(expected) + " bytes of a " + size +
-                      " film");
-    if (bytes.size() - at < expected)
-      throw FilmError(path + ": the pixel data is " + std::to_string(bytes.size() - at) + " bytes, but a " + size +
-                      " film has " + std::to_string(expected) + " (truncated)");
   }
+  const std::uintmax_t end = sized ? fileSize : bytes.size(), have = end > at ? end - at : 0;
+  const std::string size = std::to_string(h.width) + "x" + std::to_string(h.height);
+  if (have > expected && !sized) // (a pipe: read no further than a byte past)
+    throw FilmError(path + ": the pixel data is longer than the " + std::to_string(expected) + " bytes of a " + size +
+                    " film");
+  if (have != expected)
+    throw FilmError(path + ": the pixel data is " + std::to_string(have) + " bytes, but a " + size + " film has " +
+                    std::to_string(expected) + (have < expected ? " (truncated)" : ""));
   // The pixel data a block at a time: what the header's read took of it, then the rest of the file.
   std::size_t blockAt = at;
   std::vector<unsigned char> block;
