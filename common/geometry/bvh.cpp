@@ -875,13 +875,20 @@ template <class V> void fill(V& v, float x)
 // comes near it.) So the test is wider than the exact one by some 5·10^-7 of the distance: now and then a box
 // more, never a different hit.
 //
-// `tmax`: the far end of the interval, ray.tmax or a nearer hit already found (outside the tree). `r` is filled in
-// where it lies (returned by value and assigned, it was a copy of some 450 bytes a ray).
-template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
+// A ray's box-test constants, axis by axis in the lanes of four floats (x, y, z, and lane 3): what prepareBoxRay
+// puts in every lane of a BoxRay, before it does. Lane 3 of originNear holds tmax rounded up, of originFar tmin
+// rounded down; lanes 3 of the inverses are finite and positive. `negative`: lanes 0 to 2 all ones where d < 0,
+// lane 3 zero.
+struct BoxRayLanes {
+  Float4 originNear, originFar, invNear, invFar;
+  Mask4 negative;
+};
+
+// `tmax`: the far end of the interval, ray.tmax or a nearer hit already found (outside the tree).
+[[gnu::always_inline]] inline BoxRayLanes boxRayLanes(const Ray& ray, Real tmax)
 {
   constexpr Real kWiden = kBoxMargin<Real> + Real(gamma<float>(8));
   constexpr Real kFloatMax = Real(std::numeric_limits<float>::max());
-  constexpr std::size_t kRow = BvhWideNode::kWidth;
   // Per axis, in the lanes of four floats (x, y, z, and lane 3): the origin rounded down and up, 1/d scaled for
   // entries and exits, and whether d is negative. Lane 3 of the origin rounded down holds tmin rounded down, of the
   // origin rounded up, tmax rounded up; the other lanes 3 are unused.
@@ -937,26 +944,41 @@ template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
   }
   // A positive direction meets lo first: its entry (lo − o)/d is early when o is rounded up, its exit (hi − o)/d
   // late when o is rounded down. A negative direction the other way round. (Chosen by a mask, without a branch.)
-  const Float4 originNear = (Float4)((negative & (Mask4)originBelow) | (~negative & (Mask4)originAbove));
-  const Float4 originFar = (Float4)((negative & (Mask4)originAbove) | (~negative & (Mask4)originBelow));
-  // The rows: axis a's lo row is row a, its hi row a + 3. (For the three axes at once, in lanes: one by one, with
-  // the shifts and masks of each axis's sign, they were 45 instructions of a query.)
-  constexpr int kRowBytes = int(kRow * sizeof(float));
+  // |1/d| is made smaller for entries, larger for exits. The entries' stays finite: a float ∞ for a d too small
+  // for float would put entries too late (and d = ±0 then gives the largest float, whose entries are early
+  // enough). The exits' may overflow to ±∞, which is on the safe side.
+  return BoxRayLanes{(Float4)((negative & (Mask4)originBelow) | (~negative & (Mask4)originAbove)),
+                     (Float4)((negative & (Mask4)originAbove) | (~negative & (Mask4)originBelow)), invNear, invFar,
+                     negative};
+}
+
+// The rows of BvhWideNode::bounds a ray with these signs meets first and last (BoxRay's nearRow and farRow): axis
+// a's lo row is row a, its hi row a + 3. (For the three axes at once, in lanes: one by one, with the shifts and masks
+// of each axis's sign, they were 45 instructions of a query.)
+[[gnu::always_inline]] inline void boxRows(const Mask4& negative, std::uint32_t (&nearRow)[4],
+                                           std::uint32_t (&farRow)[4])
+{
+  constexpr int kRowBytes = int(BvhWideNode::kWidth * sizeof(float));
   const Mask4 loRow = {0, kRowBytes, 2 * kRowBytes, 0}, flipRows = Mask4{} + 3 * kRowBytes;
   const Mask4 nearRows = loRow + (negative & flipRows), farRows = loRow + (~negative & flipRows);
-  std::memcpy(r.nearRow, &nearRows, sizeof r.nearRow);
-  std::memcpy(r.farRow, &farRows, sizeof r.farRow);
+  std::memcpy(nearRow, &nearRows, sizeof nearRow);
+  std::memcpy(farRow, &farRows, sizeof farRow);
+}
+
+// The ray's box-test constants in every lane of `r`, which is filled in where it lies (returned by value and
+// assigned, it was a copy of some 450 bytes a ray).
+template <class V> void prepareBoxRay(const Ray& ray, Real tmax, BoxRay<V>& r)
+{
+  const BoxRayLanes lanes = boxRayLanes(ray, tmax);
+  boxRows(lanes.negative, r.nearRow, r.farRow);
   for (int a = 0; a < 3; ++a) {
-    fill(r.originNear[a], originNear[a]);
-    fill(r.originFar[a], originFar[a]);
-    // |1/d| made smaller for entries, larger for exits. The entries' stays finite: a float ∞ for a d too small
-    // for float would put entries too late (and d = ±0 then gives the largest float, whose entries are early
-    // enough). The exits' may overflow to ±∞, which is on the safe side.
-    fill(r.invNear[a], invNear[a]);
-    fill(r.invFar[a], invFar[a]);
+    fill(r.originNear[a], lanes.originNear[a]);
+    fill(r.originFar[a], lanes.originFar[a]);
+    fill(r.invNear[a], lanes.invNear[a]);
+    fill(r.invFar[a], lanes.invFar[a]);
   }
-  fill(r.tmin, originBelow[3]);
-  fill(r.tmax, originAbove[3]);
+  fill(r.tmin, lanes.originFar[3]);
+  fill(r.tmax, lanes.originNear[3]);
 }
 
 // The children's boxes of `node` against the ray within [tmin, tmax], one box to a lane of V (two steps of four
@@ -1844,7 +1866,7 @@ RAYLIFE_AVX2 [[gnu::flatten]] void Bvh::interleaveEight(std::span<const Ray> ray
 // A packet of rays as one ray with intervals for its numbers: per axis the smallest and largest of the rays' box-test
 // constants (BoxRay's, lane 0 of each), for rays that meet the faces in the same order (the same signs).
 template <class V> struct PacketBoxRay {
-  std::uint32_t nearRow[3], farRow[3]; // as BoxRay's (the first ray's)
+  std::uint32_t nearRow[4], farRow[4]; // as BoxRay's (the first ray's)
   V originNear[2][3], originFar[2][3]; // [0] the smallest, [1] the largest
   V invNear[2][3], invFar[2][3];
   V tmin, tmax; // the smallest tmin; the largest of the rays' nearest hits so far
@@ -1903,30 +1925,32 @@ template <class V>
     if (!packs_.empty() || !floatPacks_.empty())
       prepareTriangleRay(rays[i], triangleRays[i]);
   }
-  // The packet's intervals, from each ray's own constants.
-  bool together = !wideNodes_.empty();
-  PacketBoxRay<V> packet;
-  float bound[2][4][3]; // [smallest, largest][originNear, originFar, invNear, invFar][axis]
-  float tmin = kInfinityF, tmax = -kInfinityF;
-  BoxRay<V> single;
+  // The packet's intervals, from each ray's own constants: the smallest and the largest of each, the three axes
+  // and lane 3 (tmax in originNear's, tmin in originFar's) at once. (Made ray by ray as a whole BoxRay, each
+  // number then taken apart, they made the packets take half as long again: perf, chapter 16 on the random spheres.)
+  bool together = !wideNodes_.empty() && n > 0;
+  BoxRayLanes low{}, high{};
+  Mask4 finite = ~Mask4{}; // lanes 0 to 2: every ray's four constants finite on that axis so far
   for (std::size_t i = 0; i < n && together; ++i) {
-    prepareBoxRay<V>(rays[i], found[i].t, single);
-    for (int a = 0; a < 3; ++a) {
-      if (i == 0)
-        packet.nearRow[a] = single.nearRow[a], packet.farRow[a] = single.farRow[a];
-      together = together && single.nearRow[a] == packet.nearRow[a];
-      const float value[4] = {single.originNear[a][0], single.originFar[a][0], single.invNear[a][0],
-                              single.invFar[a][0]};
-      for (int q = 0; q < 4; ++q) {
-        together = together && std::isfinite(value[q]);
-        bound[0][q][a] = i == 0 ? value[q] : std::min(bound[0][q][a], value[q]);
-        bound[1][q][a] = i == 0 ? value[q] : std::max(bound[1][q][a], value[q]);
-      }
+    const BoxRayLanes c = boxRayLanes(rays[i], found[i].t);
+    nearest[i] = c.originNear[3];
+    if (i == 0) {
+      low = high = c;
+    } else {
+      together = bitMask(c.negative == low.negative) == 0xf; // the same signs as the first ray
+      // (std::min and std::max's choices, lane by lane: the same numbers as one at a time.)
+      auto lower = [](Float4& m, const Float4& v) { m = v < m ? v : m; };
+      auto higher = [](Float4& m, const Float4& v) { m = m < v ? v : m; };
+      lower(low.originNear, c.originNear), higher(high.originNear, c.originNear);
+      lower(low.originFar, c.originFar), higher(high.originFar, c.originFar);
+      lower(low.invNear, c.invNear), higher(high.invNear, c.invNear);
+      lower(low.invFar, c.invFar), higher(high.invFar, c.invFar);
     }
-    nearest[i] = single.tmax[0];
-    tmin = std::min(tmin, single.tmin[0]);
-    tmax = std::max(tmax, nearest[i]);
+    // |x| < ∞, without a branch: false for ±∞ and NaN.
+    auto isFinite = [](const Float4& v) { return (Mask4)((Float4)((Mask4)v & 0x7fffffff) < kInfinityF); };
+    finite &= isFinite(c.originNear) & isFinite(c.originFar) & isFinite(c.invNear) & isFinite(c.invFar);
   }
+  together = together && (bitMask(finite) & 0x7) == 0x7;
   if (!together) {
     for (std::size_t i = 0; i < n; ++i) {
       traverse<false, false, V>(rays[i], found[i]);
@@ -1934,14 +1958,16 @@ template <class V>
     }
     return;
   }
-  for (int e = 0; e < 2; ++e)
-    for (int a = 0; a < 3; ++a) {
-      fill(packet.originNear[e][a], bound[e][0][a]);
-      fill(packet.originFar[e][a], bound[e][1][a]);
-      fill(packet.invNear[e][a], bound[e][2][a]);
-      fill(packet.invFar[e][a], bound[e][3][a]);
-    }
-  fill(packet.tmin, tmin);
+  PacketBoxRay<V> packet;
+  boxRows(low.negative, packet.nearRow, packet.farRow);
+  for (int a = 0; a < 3; ++a) {
+    fill(packet.originNear[0][a], low.originNear[a]), fill(packet.originNear[1][a], high.originNear[a]);
+    fill(packet.originFar[0][a], low.originFar[a]), fill(packet.originFar[1][a], high.originFar[a]);
+    fill(packet.invNear[0][a], low.invNear[a]), fill(packet.invNear[1][a], high.invNear[a]);
+    fill(packet.invFar[0][a], low.invFar[a]), fill(packet.invFar[1][a], high.invFar[a]);
+  }
+  fill(packet.tmin, low.originFar[3]);
+  float tmax = high.originNear[3];
   fill(packet.tmax, tmax);
 
   // The walk: depth first, the nearer child first (by where the packet enters it), as a single ray's.
