@@ -801,8 +801,10 @@ std::vector<int> chooseOutside(const std::vector<BuildItem>& items)
 // Floats on either side of x, for the per-ray constants: up to an ulp and a half looser than roundDown and
 // roundUp, and without their branches. x is moved by more than the conversion to nearest can move it back (half
 // an ulp: at most |x|·2^-24 for a normal float, 2^-150 for a subnormal), with room for the double arithmetic's
-// own rounding; past the largest float, that float or ±∞, whichever is on the safe side.
-float floatBelow(Real x)
+// own rounding; past the largest float, that float or ±∞, whichever is on the safe side. (With Real double, only
+// the float build's branch of boxRayLanes calls floatBelow, and that branch is discarded: maybe_unused keeps clang
+// from warning that the function is never emitted.)
+[[maybe_unused]] float floatBelow(Real x)
 {
   if constexpr (std::is_same_v<Real, float>)
     return float(x); // already a float
