@@ -1866,7 +1866,7 @@ RAYLIFE_AVX2 [[gnu::flatten]] void Bvh::interleaveEight(std::span<const Ray> ray
 
 /// [packet]
 // A packet of rays as one ray with intervals for its numbers: per axis the smallest and largest of the rays' box-test
-// constants (BoxRay's, lane 0 of each), for rays that meet the faces in the same order (the same signs).
+// constants (boxRayLanes'), for rays that meet the faces in the same order (the same signs).
 template <class V> struct PacketBoxRay {
   std::uint32_t nearRow[4], farRow[4]; // as BoxRay's (the first ray's)
   V originNear[2][3], originFar[2][3]; // [0] the smallest, [1] the largest
