@@ -1940,13 +1940,13 @@ template <class V>
       low = high = c;
     } else {
       together = bitMask(c.negative == low.negative) == 0xf; // the same signs as the first ray
-      // (std::min and std::max's choices, lane by lane: the same numbers as one at a time.)
-      auto lower = [](Float4& m, const Float4& v) { m = v < m ? v : m; };
-      auto higher = [](Float4& m, const Float4& v) { m = m < v ? v : m; };
-      lower(low.originNear, c.originNear), higher(high.originNear, c.originNear);
-      lower(low.originFar, c.originFar), higher(high.originFar, c.originFar);
-      lower(low.invNear, c.invNear), higher(high.invNear, c.invNear);
-      lower(low.invFar, c.invFar), higher(high.invFar, c.invFar);
+      // (minLanes(v, m) is std::min(m, v) lane by lane, maxLanes(v, m) std::max(m, v): the same numbers as one at a
+      // time.)
+      low.originNear = minLanes(c.originNear, low.originNear);
+      high.originNear = maxLanes(c.originNear, high.originNear);
+      low.originFar = minLanes(c.originFar, low.originFar), high.originFar = maxLanes(c.originFar, high.originFar);
+      low.invNear = minLanes(c.invNear, low.invNear), high.invNear = maxLanes(c.invNear, high.invNear);
+      low.invFar = minLanes(c.invFar, low.invFar), high.invFar = maxLanes(c.invFar, high.invFar);
     }
     // |x| < ∞, without a branch: false for ±∞ and NaN.
     auto isFinite = [](const Float4& v) { return (Mask4)((Float4)((Mask4)v & 0x7fffffff) < kInfinityF); };
