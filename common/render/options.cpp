@@ -379,7 +379,10 @@ std::string usageText(const UsageInfo& info)
       "                     the .film outputs with raylife_merge)\n"
       "  --seed S           random seed; the same seed gives the same image on any thread count\n"
       "  --threads T        threads (default: every core)\n"
-      "  --max-depth D      longest path, in bounces (chapters that recurse)\n"
+      "  --max-depth D      longest path, in bounces (chapters that recurse)\n" +
+      (info.maxDepthLimit > 0 ? "                     (at most " + std::to_string(info.maxDepthLimit) +
+                                    " here: each bounce is one call deeper on the stack)\n"
+                              : std::string()) +
       "  --variance FILE    also write each pixel's variance of the mean, as PFM or EXR\n"
       "  --stats FILE       also write the render's figures as JSON\n"
       "  --preview FILE.png rewrite FILE.png with the image so far every few seconds while rendering\n"

@@ -131,6 +131,7 @@ struct UsageInfo {
   /// What the chapter reads of a scene, as a phrase ("the camera, spheres and meshes, ..."); "" says nothing.
   std::string reads = {};
   std::vector<ChapterOption> options; ///< The chapter's own options.
+  int maxDepthLimit = 0;              ///< The most --max-depth the chapter takes (ChapterInfo); 0: no own limit.
 };
 
 /// The --help text of a chapter.

@@ -248,12 +248,17 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
   const std::string defaultScene = scenes.empty() ? chapter.defaultScene : scenes + "/" + chapter.defaultScene;
   if (options.help) {
     std::cout << usageText({name, defaultScene, chapter.defaultSpp, chapter.adaptiveSampling,
-                            describeReads(chapter.uses), chapter.options});
+                            describeReads(chapter.uses), chapter.options, chapter.maxDepthLimit});
     return ranks.finish(0);
   }
 
   try {
     // Load and check everything before any work: scene, size, outputs.
+    // (A chain of calls deeper than the thread's stack would end the process with a segmentation fault.)
+    if (chapter.maxDepthLimit > 0 && options.maxDepth && *options.maxDepth > chapter.maxDepthLimit)
+      throw UsageError("--max-depth " + std::to_string(*options.maxDepth) + " is more than this chapter takes, " +
+                       std::to_string(chapter.maxDepthLimit) + ": its trace calls itself once a bounce, on a stack " +
+                       "of a few megabytes");
     if (options.scenePath.empty() && scenes.empty())
       throw SceneError("cannot find the scenes folder for the default scene " + chapter.defaultScene +
                        ": there is no scenes/ above " + programDirectory().string() +

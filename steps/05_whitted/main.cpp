@@ -94,7 +94,8 @@ int main(int argc, char** argv)
                                     kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 16,
-                            .defaultMaxDepth = 10};
+                            .defaultMaxDepth = 10,
+                            .maxDepthLimit = 1000}; // trace calls itself: its chain of calls fits the stack
   /// [chapter]
   return runChapter(argc, argv, chapter, trace);
 }

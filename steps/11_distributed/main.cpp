@@ -78,7 +78,8 @@ int main(int argc, char** argv)
                                     kUsesMaxDepth | kUsesLens | kUsesMotion | kSamplesLights,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
-                            .defaultMaxDepth = 10};
+                            .defaultMaxDepth = 10,
+                            .maxDepthLimit = 1000}; // trace calls itself: its chain of calls fits the stack
   /// [chapter]
   // The light sampler is built once per scene and shared, read-only, by every thread.
   return runChapter(argc, argv, chapter, [](const Scene& scene) -> TraceFunction {

@@ -712,6 +712,38 @@ TEST_CASE("a chapter that does not recurse says apart from the scene that it ign
         std::string::npos);
 }
 
+TEST_CASE("a chapter whose trace calls itself refuses a --max-depth deeper than its stack, and renders at its limit")
+{
+  // The eye inside a mirror ball: every ray bounces until the depth limit stops it, one call deeper each time. At
+  // 15,000 calls a release build's 8 MB stack overflowed (a segmentation fault); under AddressSanitizer, 6,000.
+  const TempDir dir;
+  writeFile(dir.path() / "mirror_ball.json", R"({
+  "camera": { "eye": [0.1, 0.2, 0.3], "focal": [1, 0.5, 0.2], "up": [0, 1, 0], "vfov": 40, "width": 4, "height": 3 },
+  "background": [0.5, 0.5, 0.5],
+  "materials": { "mirror": { "type": "mirror", "color": [0.9, 0.9, 0.9] } },
+  "spheres": [ { "center": [0, 0, 0], "radius": 10, "material": "mirror" } ]
+})");
+  for (const auto& [binary, name] : {std::pair<std::string, std::string>{STEP05, "step05_whitted"},
+                                     std::pair<std::string, std::string>{STEP11, "step11_distributed"}}) {
+    INFO(name);
+    const Outcome refused =
+        run(binary, {"mirror_ball.json", "--max-depth", "20000", "--spp", "1", "-o", "out.png"}, dir.path());
+    INFO(refused.err);
+    CHECK(refused.status == 2);
+    CHECK(refused.err == name + ": --max-depth 20000 is more than this chapter takes, 1000: its trace calls itself "
+                                "once a bounce, on a stack of a few megabytes\n");
+    CHECK(!fs::exists(dir.path() / "out.png"));
+    // At the limit, on two threads (the main thread's stack and a worker's).
+    const Outcome deepest = run(binary, {"mirror_ball.json", "--max-depth", "1000", "--spp", "2", "--threads", "2",
+                                         "-o", "out.png", "--quiet"},
+                                dir.path());
+    INFO(deepest.err);
+    CHECK(deepest.status == 0);
+    CHECK(fs::exists(dir.path() / "out.png"));
+    fs::remove(dir.path() / "out.png");
+  }
+}
+
 TEST_CASE("a preview (--preview) is a valid PNG of the image so far while a --time render runs (issue 43)")
 {
   const TempDir dir, capture;

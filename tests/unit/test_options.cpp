@@ -132,4 +132,10 @@ TEST_CASE("the help text lists every shared option on the usage line and the cha
   // A chapter that does not sample adaptively says so beside --adaptive.
   CHECK(usageText({"step04_shadows", "s.json", 1, false, "", {}}).find("this one ignores it") != std::string::npos);
   CHECK(usageText({"step04_shadows", "s.json", 1, false, "", {}}).find("own options") == std::string::npos);
+  // A chapter that recurses once a bounce says how deep it goes, under --max-depth; the others say nothing of it.
+  CHECK(usageText({"step05_whitted", "s.json", 16, false, "", {}, 1000})
+            .find("  --max-depth D      longest path, in bounces (chapters that recurse)\n"
+                  "                     (at most 1000 here: each bounce is one call deeper on the stack)\n") !=
+        std::string::npos);
+  CHECK(text.find("at most") == std::string::npos);
 }
