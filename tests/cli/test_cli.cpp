@@ -24,6 +24,8 @@
 
 #include <sched.h>
 #include <sys/mount.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 
 using namespace raylife::test;
 namespace fs = std::filesystem;
@@ -475,6 +477,40 @@ TEST_CASE("a write to a full disk (a 64 kB tmpfs) leaves the old file untouched 
   CHECK(readFile(dir.path() / "full" / "out.pfm") == "old pfm");
 }
 
+TEST_CASE("a generator's write to a full disk leaves no half-written file")
+{
+  privateMountsOrSkip("full disk, generators");
+  const TempDir dir;
+  const Tmpfs full(dir.path() / "full", "size=64k");
+  const Outcome density = run(GEN_DENSITY, {"cloud.json", "200"}, dir.path() / "full"); // about 35 MB of text
+  CHECK(density.status == 1);
+  CHECK(density.err == "cloud.json: No space left on device\n");
+  const Outcome mesh = run(GEN_MESH, {"100000", "1", "blob.ply"}, dir.path() / "full");
+  CHECK(mesh.status == 1);
+  CHECK(mesh.err == "gen_mesh: writing blob.ply failed\n");
+  CHECK(entries(dir.path() / "full").empty());
+}
+
+TEST_CASE("a generator whose output is a device that fails the write leaves the device where it was")
+{
+  // (As /dev/full: every write fails with ENOSPC. gen_mesh used to remove its output after a failed write, device
+  // or not: as root, that deletes the device node.)
+  const TempDir dir;
+  if (::mknod((dir.path() / "full").c_str(), S_IFCHR | 0666, makedev(1, 7)) != 0) {
+    std::cerr << "SKIPPED: cannot make a device node here (" << std::strerror(errno) << "; needs root)\n";
+    std::exit(kSkipped);
+  }
+  for (const auto& [generator, args] :
+       {std::pair<std::string, std::vector<std::string>>{GEN_DENSITY, {"full", "8"}},
+        std::pair<std::string, std::vector<std::string>>{GEN_MESH, {"1000", "1", "full"}}}) {
+    INFO(generator);
+    CHECK(run(generator, args, dir.path()).status == 1);
+    struct stat st = {};
+    CHECK(::stat((dir.path() / "full").c_str(), &st) == 0);
+    CHECK(S_ISCHR(st.st_mode));
+  }
+}
+
 TEST_CASE("an output in a read-only folder is refused before rendering")
 {
   // As root, chmod does not stop a write, so the folder is a read-only tmpfs: no one can write there.
@@ -710,6 +746,41 @@ TEST_CASE("a chapter that does not recurse says apart from the scene that it ign
   CHECK(o.err.find("step04_shadows: ignores --max-depth (nothing here recurses)\n") != std::string::npos);
   CHECK(o.err.find("ignores in scene.json: the reflection and refraction of 1 material (shaded as diffuse)\n") !=
         std::string::npos);
+}
+
+TEST_CASE("the generators print their usage for --help with status 0, and refuse what they do not know")
+{
+  const TempDir dir;
+  for (const auto& [generator, name] : {std::pair<std::string, std::string>{GEN_DENSITY, "gen_density"},
+                                        std::pair<std::string, std::string>{GEN_MESH, "gen_mesh"},
+                                        std::pair<std::string, std::string>{GEN_SKY, "gen_sky"},
+                                        std::pair<std::string, std::string>{GEN_SPHERES, "gen_spheres"}})
+    for (const char* help : {"--help", "-h"}) {
+      INFO(name << " " << help);
+      const Outcome o = run(generator, {help}, dir.path());
+      CHECK(o.status == 0);
+      CHECK(o.out.rfind("usage: " + name + " ", 0) == 0);
+      CHECK(o.err.empty());
+      CHECK(entries(dir.path()).empty()); // (gen_density wrote its cloud into a file named --help)
+    }
+  // An option gen_density does not know, and numbers that are not whole: one line and the usage, nothing written.
+  for (const auto& [args, message] :
+       {std::pair<std::vector<std::string>, std::string>{{"cloud.json", "--thresold", "0.2"},
+                                                         "gen_density: unknown option --thresold\n"},
+        std::pair<std::vector<std::string>, std::string>{
+            {"cloud.json", "48x"}, "gen_density: N must be a whole number in [8, 256], got 48x\n"},
+        std::pair<std::vector<std::string>, std::string>{
+            {"cloud.json", "48", "one"}, "gen_density: SEED must be a whole number in [0, 2^62], got one\n"}}) {
+    const Outcome o = run(GEN_DENSITY, args, dir.path());
+    INFO(o.err);
+    CHECK(o.status == 2);
+    CHECK(o.err.rfind(message, 0) == 0);
+    CHECK(entries(dir.path()).empty());
+  }
+  const Outcome sky = run(GEN_SKY, {"--width", "64", "sky.exr"}, dir.path());
+  CHECK(sky.status == 2);
+  CHECK(sky.err.rfind("gen_sky: no output file (OUT comes first): --width\n", 0) == 0);
+  CHECK(entries(dir.path()).empty());
 }
 
 TEST_CASE("a chapter whose trace calls itself refuses a --max-depth deeper than its stack, and renders at its limit")

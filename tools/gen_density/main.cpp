@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -58,18 +59,35 @@ bool parseNumber(const char* text, double& value)
   return end != text && *end == 0 && std::isfinite(value);
 }
 
+// A whole number in [lo, hi], all of `text`.
+bool parseWhole(const char* text, long long lo, long long hi, long long& value)
+{
+  char* end = nullptr;
+  value = std::strtoll(text, &end, 10);
+  return end != text && *end == 0 && value >= lo && value <= hi;
+}
+
 int main(int argc, char** argv)
 {
-  auto usage = [] {
-    std::fprintf(stderr, "usage: gen_density OUT.json [N (8..256, default 48)] [SEED (default 1)] [--threshold T "
-                         "(0..1, default 0.12)] [--power P (0.25..8, default 1)]\n");
+  const char* usageText = "usage: gen_density OUT.json [N (8..256, default 48)] [SEED (default 1)] [--threshold T "
+                          "(0..1, default 0.12)] [--power P (0.25..8, default 1)]\n";
+  auto usage = [usageText] {
+    std::fputs(usageText, stderr);
     return 2;
   };
   std::vector<const char*> positional;
   double threshold = 0.12, power = 1;
   bool shaped = false; // --threshold or --power given: normalise to a densest value of 1
   for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--help") == 0 || std::strcmp(argv[i], "-h") == 0) {
+      std::fputs(usageText, stdout);
+      return 0;
+    }
     const bool isThreshold = std::strcmp(argv[i], "--threshold") == 0, isPower = std::strcmp(argv[i], "--power") == 0;
+    if (argv[i][0] == '-' && !isThreshold && !isPower) { // (not an output file named like an option)
+      std::fprintf(stderr, "gen_density: unknown option %s\n", argv[i]);
+      return usage();
+    }
     if (!isThreshold && !isPower) {
       positional.push_back(argv[i]);
       continue;
@@ -93,13 +111,17 @@ int main(int argc, char** argv)
   }
   if (positional.empty() || positional.size() > 3)
     return usage();
-  const int n = positional.size() > 1 ? std::atoi(positional[1]) : 48;
-  const std::uint64_t seed = positional.size() > 2 ? std::strtoull(positional[2], nullptr, 10) : 1;
-  if (n < 8 || n > 256) {
-    std::fprintf(stderr, "gen_density: N must lie in [8, 256], got %s\n", positional[1]);
+  long long n = 48, seedValue = 1;
+  if (positional.size() > 1 && !parseWhole(positional[1], 8, 256, n)) {
+    std::fprintf(stderr, "gen_density: N must be a whole number in [8, 256], got %s\n", positional[1]);
     return 2;
   }
-  const int nx = n, ny = n / 2, nz = n;
+  if (positional.size() > 2 && !parseWhole(positional[2], 0, 1LL << 62, seedValue)) {
+    std::fprintf(stderr, "gen_density: SEED must be a whole number in [0, 2^62], got %s\n", positional[2]);
+    return 2;
+  }
+  const std::uint64_t seed = std::uint64_t(seedValue);
+  const int nx = int(n), ny = int(n) / 2, nz = int(n);
   std::vector<double> d;
   d.reserve(std::size_t(nx) * std::size_t(ny) * std::size_t(nz));
   for (int k = 0; k < nz; ++k)
@@ -138,8 +160,11 @@ int main(int argc, char** argv)
   for (std::size_t i = 0; i < d.size(); ++i)
     std::fprintf(out, "%s%s%.4g", i ? "," : "", i % 24 == 0 ? "\n" : "", d[i]);
   std::fprintf(out, "\n]}\n");
-  if (std::fclose(out) != 0) {
+  if (std::ferror(out) | std::fclose(out)) { // (both: the file is closed either way)
     std::perror(path);
+    std::error_code ignored; // (a half-written file goes; a device or a pipe named as the output stays)
+    if (std::filesystem::is_regular_file(path, ignored))
+      std::remove(path);
     return 1;
   }
   return 0;

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -37,9 +38,14 @@ struct Wave {
 
 int main(int argc, char** argv)
 {
+  const char* usage = "usage: gen_mesh N SEED OUT.ply   (N triangles, 8 to 100000000; SEED a whole number >= 0)\n";
+  if (argc == 2 && (std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0)) {
+    std::fputs(usage, stdout);
+    return 0;
+  }
   long long n = 0, seed = 0;
   if (argc != 4 || !parseCount(argv[1], 8, 100000000, n) || !parseCount(argv[2], 0, (1LL << 62), seed)) {
-    std::fprintf(stderr, "usage: gen_mesh N SEED OUT.ply   (N triangles, 8 to 100000000; SEED a whole number >= 0)\n");
+    std::fputs(usage, stderr);
     return 2;
   }
   // rings × segments cells, segments = 2·rings: 2·segments·(rings − 1) ≈ 4·rings² triangles.
@@ -108,7 +114,9 @@ int main(int argc, char** argv)
   ok = std::fclose(out) == 0 && ok;
   if (!ok) {
     std::fprintf(stderr, "gen_mesh: writing %s failed\n", argv[3]);
-    std::remove(argv[3]);
+    std::error_code ignored; // (a half-written file goes; a device or a pipe named as the output stays)
+    if (std::filesystem::is_regular_file(argv[3], ignored))
+      std::remove(argv[3]);
     return 1;
   }
   std::fprintf(stderr, "gen_mesh: %zu triangles, %zu vertices -> %s\n", faceCount, vertices.size() / 3, argv[3]);

@@ -80,11 +80,13 @@ struct SkyModel {
 };
 // [preetham]
 
+const char* const kUsage = "usage: gen_sky OUT.exr|OUT.pfm [--elevation DEG (0-90, default 35)] [--azimuth DEG "
+                           "(default 30)] [--turbidity T (2-10, default 3)] [--width W (default 512)] [--sun-ratio R "
+                           "(default 5)]\n";
+
 [[noreturn]] void usage(const std::string& why)
 {
-  std::cerr << "gen_sky: " << why << "\nusage: gen_sky OUT.exr|OUT.pfm [--elevation DEG (0-90, default 35)] "
-            << "[--azimuth DEG (default 30)] [--turbidity T (2-10, default 3)] [--width W (default 512)] "
-            << "[--sun-ratio R (default 5)]\n";
+  std::cerr << "gen_sky: " << why << "\n" << kUsage;
   std::exit(2);
 }
 
@@ -95,6 +97,12 @@ int main(int argc, char** argv)
   if (argc < 2)
     usage("no output file");
   const std::string out = argv[1];
+  if (out == "--help" || out == "-h") {
+    std::cout << kUsage;
+    return 0;
+  }
+  if (out.starts_with('-'))
+    usage("no output file (OUT comes first): " + out);
   double elevation = 35, azimuth = 30, turbidity = 3, sunRatio = 5;
   int width = 512;
   for (int i = 2; i < argc; ++i) {

@@ -96,6 +96,13 @@ int clutter(int argc, char** argv)
 
 int main(int argc, char** argv)
 {
+  const char* usage = "usage: gen_spheres N SEED [--diffuse] > scene.json   (1 <= N <= 10000000 spheres, SEED >= 0)\n"
+                      "       gen_spheres clutter BASE.json N SEED X0 Y0 Z0 X1 Y1 Z1 > scene.json   (BASE.json with N "
+                      "small spheres added in the box)\n";
+  if (argc == 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h")) {
+    std::fputs(usage, stdout);
+    return 0;
+  }
   if (argc > 1 && std::string(argv[1]) == "clutter")
     return clutter(argc, argv);
   long long n = 0, seed = 0;
@@ -103,10 +110,7 @@ int main(int argc, char** argv)
   // same: a scene that chapters of local shading (4, 9) render whole.
   const bool diffuse = argc == 4 && std::string(argv[3]) == "--diffuse";
   if ((argc != 3 && !diffuse) || !parseCount(argv[1], 1, 10000000, n) || !parseCount(argv[2], 0, 1LL << 62, seed)) {
-    std::fprintf(stderr, "usage: gen_spheres N SEED [--diffuse] > scene.json   (1 <= N <= 10000000 spheres, "
-                         "SEED >= 0)\n"
-                         "       gen_spheres clutter BASE.json N SEED X0 Y0 Z0 X1 Y1 Z1 > scene.json   (BASE.json "
-                         "with N small spheres added in the box)\n");
+    std::fputs(usage, stderr);
     return 2;
   }
   Random random{std::uint64_t(seed)};
