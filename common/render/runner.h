@@ -27,7 +27,7 @@ struct ChapterInfo {
   int defaultMaxDepth = -1;   ///< --max-depth default; −1: unlimited.
   /// The most --max-depth the chapter takes; 0: the command line's own bound (2^20). A chapter whose trace calls
   /// itself once a bounce (5 and 11) sets it, so that its deepest chain of calls fits a thread's stack: a level
-  /// takes about 0.6 KB in a release build and 2 KB under AddressSanitizer, and a thread has the usual 8 MB.
+  /// took 0.4 to 0.8 KB in a release build and 1 to 3 KB under AddressSanitizer, of a thread's usual 8 MB.
   int maxDepthLimit = 0;
   /// Optional: a second estimator whose image the runner puts to the right of the first, rendered with the same
   /// camera, seed and samples per pixel, so the output is twice as wide (chapter 9 shows the work each pixel cost

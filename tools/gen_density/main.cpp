@@ -160,7 +160,8 @@ int main(int argc, char** argv)
   for (std::size_t i = 0; i < d.size(); ++i)
     std::fprintf(out, "%s%s%.4g", i ? "," : "", i % 24 == 0 ? "\n" : "", d[i]);
   std::fprintf(out, "\n]}\n");
-  if (std::ferror(out) | std::fclose(out)) { // (both: the file is closed either way)
+  const bool failed = std::ferror(out) != 0; // (asked before fclose, which closes the file either way)
+  if (std::fclose(out) != 0 || failed) {
     std::perror(path);
     std::error_code ignored; // (a half-written file goes; a device or a pipe named as the output stays)
     if (std::filesystem::is_regular_file(path, ignored))
