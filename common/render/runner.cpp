@@ -10,12 +10,17 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
+#include <condition_variable>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
+#include <mutex>
 #include <sstream>
+#include <system_error>
+#include <thread>
 
 #include <signal.h>
 #include <unistd.h>
@@ -141,8 +146,9 @@ std::pair<std::int64_t, std::int64_t> imageSize(int sceneWidth, int sceneHeight,
 
 namespace {
 
-// Ctrl-C (or SIGTERM) once: stop at the next tile, write what there is, exit 130. Twice: stop at once and
-// write nothing. The handler touches only lock-free atomics and _exit, which are async-signal-safe.
+// Ctrl-C (or SIGTERM) once: stop at the next tile, write what there is, exit 130 (or, when no tile comes within
+// kStopGraceSeconds, stop without writing: StopDeadline). Twice: stop at once and write nothing. The handler
+// touches only lock-free atomics and _exit, which are async-signal-safe.
 std::atomic<int> gSignals{0};            // SIGINT and SIGTERM received since the handlers were installed
 std::atomic<bool> gStopRequested{false}; // the render loop stops at the next tile
 std::atomic<bool> gWriting{false};       // the images are being written: a second signal cancels the write
@@ -192,6 +198,62 @@ public:
 private:
   struct sigaction previousInt_{};
   struct sigaction previousTerm_{};
+};
+
+// The first signal asks the render to stop at its next tile, which comes within a fraction of a second. A sample that
+// never ends keeps it from getting there: chapter 5's ray tree through glass at a deep --max-depth doubles at every
+// surface, and delta tracking through a cloud made billions of times denser than meant takes a step per unit of
+// optical thickness. Then the first signal alone, which is all that `timeout` or a service manager sends, would
+// never end the process. So a watch runs beside the render (from before the chapter's set-up, which can be long too:
+// an OpenCL compile, the light guide's pre-pass): if the render has not returned kStopGraceSeconds after the first
+// signal, it ends the process as a second signal does, without writing, with one line that says why.
+constexpr int kStopGraceSeconds = 5;
+
+class StopDeadline {
+public:
+  // `speaks`: whether this process says why it stopped (rank 0 of an MPI job, or the only process).
+  StopDeadline(const std::string& name, bool speaks)
+      : message_(speaks ? name + ": interrupted, but a sample was still running " +
+                              std::to_string(kStopGraceSeconds) + " s later: stopped without writing\n"
+                        : std::string())
+  {
+    try {
+      watcher_ = std::thread([this] { watch(); });
+    } catch (const std::system_error&) { // no thread to spare: the render runs unwatched, as before
+    }
+  }
+  // The render has returned: the watch ends.
+  ~StopDeadline()
+  {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      ended_ = true;
+    }
+    wake_.notify_one();
+    if (watcher_.joinable())
+      watcher_.join();
+  }
+  StopDeadline(const StopDeadline&) = delete;
+  StopDeadline& operator=(const StopDeadline&) = delete;
+
+private:
+  void watch()
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    // (A signal handler cannot notify a condition variable, so the request is looked at ten times a second.)
+    while (!ended_ && !gStopRequested.load())
+      wake_.wait_for(lock, std::chrono::milliseconds(100));
+    if (wake_.wait_for(lock, std::chrono::seconds(kStopGraceSeconds), [this] { return ended_; }))
+      return;
+    [[maybe_unused]] const ssize_t ignored = ::write(STDERR_FILENO, message_.data(), message_.size());
+    _exit(130);
+  }
+
+  const std::string message_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool ended_ = false;
+  std::thread watcher_;
 };
 
 // Checks, before any work, that a file can be written: its folder exists and is writable, and it is no folder.
@@ -361,6 +423,7 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
       };
     std::string device; // what a wavefront ran on (Wavefront::device), for --stats
     RenderResult result = [&] {
+      const StopDeadline deadline(name, ranks.root());
       if (makeSplatTrace)
         return ranks.render(scene, camera, settings, (*makeSplatTrace)(scene, options.chapter));
       if (makeWavefront) {

@@ -18,11 +18,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <iostream>
+#include <iterator>
 #include <regex>
+#include <sstream>
 #include <thread>
 
 #include <sched.h>
+#include <unistd.h>
 #include <sys/mount.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
@@ -601,6 +605,63 @@ TEST_CASE("Ctrl-C during a render of chapter 16 (a wavefront of samples at a tim
 TEST_CASE("SIGTERM during a render writes the image so far and exits with 130")
 {
   checkInterruptedRender(SIGTERM);
+}
+
+namespace {
+// The fields of /proc/PID/stat after the command's name in brackets (which may hold spaces): [0] is the state (Z
+// once the process has ended, until it is waited for), [11] and [12] its user and system CPU time in clock ticks.
+// Empty if it cannot be read.
+std::vector<std::string> procStat(pid_t pid)
+{
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string text;
+  std::getline(in, text);
+  const std::size_t close = text.rfind(')');
+  if (close == std::string::npos || close + 2 > text.size())
+    return {};
+  std::istringstream fields(text.substr(close + 2));
+  return {std::istream_iterator<std::string>(fields), std::istream_iterator<std::string>()};
+}
+
+// The CPU seconds process `pid` has used so far, user and system (−1 if they cannot be read).
+double cpuSeconds(pid_t pid)
+{
+  const std::vector<std::string> f = procStat(pid);
+  if (f.size() < 13)
+    return -1;
+  return double(std::stoull(f[11]) + std::stoull(f[12])) / double(::sysconf(_SC_CLK_TCK));
+}
+} // namespace
+
+TEST_CASE("one SIGTERM ends a render whose sample never ends, within seconds, writing nothing")
+{
+  // Chapter 5's ray tree splits in two at every glass surface: at --max-depth 1000 a pixel that sees the glass ball
+  // of whitted.json never ends. The first signal asks for the next tile, which never comes; a second signal, which
+  // `timeout` never sends, was the only way out. Now a watch ends the process 5 s after the first signal.
+  const TempDir dir, capture;
+  const Child child = startRender({RAYLIFE_SCENES_DIR "/whitted.json", "--width", "4", "--height", "3", "--threads",
+                                   "1", "--max-depth", "1000", "-o", "out.png"},
+                                  dir.path(), capture.path(), STEP05);
+  // The signal must come once the render is in its endless sample (one that came before the first tile would stop
+  // the render there, and it would write a black image): a second of CPU time, where setting up takes some 10 ms.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (cpuSeconds(child.pid) < 1 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  REQUIRE(::kill(child.pid, SIGTERM) == 0);
+  // (Without the watch the child would never end: it is given a minute, then killed, and the test fails.)
+  const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (procStat(child.pid).at(0) != "Z" && std::chrono::steady_clock::now() < limit)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const bool ended = procStat(child.pid).at(0) == "Z";
+  if (!ended)
+    ::kill(child.pid, SIGKILL);
+  const Outcome o = wait(child);
+  INFO(o.err);
+  REQUIRE(ended);
+  CHECK(o.signal == 0);
+  CHECK(o.status == 130);
+  CHECK(o.err == "step05_whitted: interrupted, but a sample was still running 5 s later: stopped without writing\n");
+  CHECK(entries(dir.path()).empty());
 }
 
 TEST_CASE("Ctrl-C stops a render of one pass between tiles and writes the image so far (issue 26)")
