@@ -1,6 +1,7 @@
 #include "render/options.h"
 
 #include "core/edit_distance.h"
+#include "core/threads.h"
 #include "render/image_io.h"
 #include "scene/scene.h"
 
@@ -271,7 +272,7 @@ RenderOptions parseCommandLine(int argc, const char* const* argv, const std::vec
     } else if (arg == "--seed") {
       o.seed = std::uint64_t(parseInteger(arg, value(), 0, (1LL << 62)));
     } else if (arg == "--threads") {
-      o.threads = int(parseInteger(arg, value(), 1, 1024));
+      o.threads = int(parseInteger(arg, value(), 1, kMaxThreads));
     } else if (arg == "--max-depth") {
       o.maxDepth = int(parseInteger(arg, value(), 0, 1 << 20));
     } else if (arg == "--quiet" || arg == "-q") {

@@ -1,12 +1,11 @@
 #include "render/runner.h"
 
+#include "core/threads.h"
 #include "render/film_file.h"
 #include "render/image_io.h"
 #include "render/locate.h"
 #include "render/ranks.h"
 #include "scene/scene_plan.h"
-
-#include <omp.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -478,7 +477,7 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
       json << "{\"chapter\": \"" << name << "\", \"width\": " << mean.width << ", \"height\": " << height
            << ", \"spp\": " << result.spp << ", \"seconds\": " << result.seconds << ", \"rays\": " << result.rays
            << ", \"bad_samples\": " << result.badSamples << ", \"threads\": "
-           << (settings.threads > 0 ? settings.threads : omp_get_max_threads())
+           << (settings.threads > 0 ? settings.threads : defaultThreads())
            << ", \"interrupted\": " << (result.interrupted ? "true" : "false")
            << ", \"mean_spp\": " << result.meanSpp << ", \"max_spp\": " << maxSpp << ", \"adaptive\": " << (settings.adaptive ? "true" : "false")
            << ", \"ranks\": " << ranks.size() << ", \"camera_rays\": " << result.cameraRays;

@@ -2,6 +2,7 @@
 
 #include "core/frame.h"
 #include "core/rng.h"
+#include "core/threads.h"
 #include "scene/camera.h"
 #include "shading/bsdf.h"
 
@@ -385,7 +386,7 @@ void LightSampler::learn(const LightGuiding& guiding)
   for (std::size_t i = 0; i < points.size(); ++i)
     pointCell[i] = cellOf(points[i].hit.point);
   std::vector<char> wanted(cells * n, 1); // per cell and light: draw its samples in this round
-  const int threads = guiding.threads > 0 ? guiding.threads : omp_get_max_threads();
+  const int threads = guiding.threads > 0 ? guiding.threads : defaultThreads();
   const auto drawRound = [&](int from, int to) {
 #pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
     for (std::ptrdiff_t ii = 0; ii < std::ptrdiff_t(points.size()); ++ii) {

@@ -700,6 +700,21 @@ double statsNumber(const std::string& stats, const std::string& key)
 }
 } // namespace
 
+TEST_CASE("OMP_NUM_THREADS beyond what --threads takes is capped at 1024")
+{
+  // libgomp starts a team with a buffer per thread on the caller's stack: with OMP_NUM_THREADS=100000 every chapter
+  // ended in a segmentation fault inside GOMP_parallel. The default is now capped as --threads is. (Chapter 8: its
+  // light guide's pre-pass runs on the default too.)
+  const TempDir dir;
+  const Outcome o = run(kStep08, {RAYLIFE_TEST_SCENE, "--width", "8", "--height", "6", "--spp", "1", "-o", "out.png",
+                                  "--stats", "s.json", "--quiet"},
+                        dir.path(), {"OMP_NUM_THREADS=100000"});
+  INFO(o.err);
+  CHECK(o.signal == 0);
+  REQUIRE(o.status == 0);
+  CHECK(statsNumber(readFile(dir.path() / "s.json"), "threads") == 1024);
+}
+
 TEST_CASE("Ctrl-C in the middle of a batch of many samples reports what the pixels hold (issue 43)")
 {
   // A batch may be many samples (batches double, up to a quarter of a second): a Ctrl-C that cuts one leaves the

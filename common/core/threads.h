@@ -1,0 +1,20 @@
+/// @file threads.h
+/// @brief How many threads a render takes when the command line does not say.
+#pragma once
+
+#include <omp.h>
+
+#include <algorithm>
+
+namespace raylife {
+
+/// The most threads a render or a pre-pass runs on: the largest --threads accepts, and the cap on OpenMP's default.
+/// (libgomp starts a team with a buffer on the stack per thread: OMP_NUM_THREADS=100000 overflowed the stack of
+/// every chapter in GOMP_parallel, before any of its threads ran.)
+inline constexpr int kMaxThreads = 1024;
+
+/// The threads a parallel loop takes when --threads names none: OpenMP's default (OMP_NUM_THREADS, else one per
+/// core), at most kMaxThreads; at least 1.
+inline int defaultThreads() { return std::clamp(omp_get_max_threads(), 1, kMaxThreads); }
+
+} // namespace raylife
