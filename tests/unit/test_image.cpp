@@ -179,6 +179,47 @@ TEST_CASE("an EXR whose tiles dwarf its pixels is refused before its buffers are
   std::remove(path.c_str());
 }
 
+TEST_CASE("an EXR whose header attribute claims more bytes than the file holds is refused before OpenEXR reads it")
+{
+  // The float image fuzzer's find: 672 bytes (after the byte that chose the format) whose "type" string attribute
+  // claims 2,003,042,314 bytes. OpenEXR sized the string to that, 2 GB and 12 s of zeroes, before it found the file
+  // too short; the fuzzer saw only the time. So this test asks for the reason, which only the check gives.
+  std::ifstream in(std::string(RAYLIFE_FUZZ_FLOAT_IMAGE_REGRESSIONS) + "/exr_string_attribute_claiming_2_gb.exr.bin",
+                   std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  REQUIRE(bytes.size() == 673);
+  const std::string path = tempPath("attribute.exr");
+  std::ofstream(path, std::ios::binary).write(bytes.data() + 1, std::streamsize(bytes.size() - 1));
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + ": the EXR's header attribute 'type' claims 2003042314 "
+                                                          "bytes, and the file has 293 left"));
+  std::remove(path.c_str());
+}
+
+TEST_CASE("a multi-part EXR passes the attribute check, and a lie in its second header does not")
+{
+  // Two parts of 4x3 pixels, R = 0.5, each header with a 300-byte "comment" string (made with OpenEXR's
+  // MultiPartOutputFile). readExr reads the first part; the check walks every header up to the empty one.
+  std::ifstream in(std::string(RAYLIFE_FUZZ_FLOAT_IMAGE_REGRESSIONS) + "/multi_part_two_headers.exr.bin",
+                   std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  REQUIRE(bytes.size() == 1403);
+  bytes.erase(0, 1); // (the byte with which the fuzzer chose the format)
+  const std::string path = tempPath("parts.exr");
+  std::ofstream(path, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+  const Image image = readExr(path);
+  CHECK(image.width == 4);
+  CHECK(image.height == 3);
+  CHECK(image.at(3, 2, 0) == 0.5f);
+  // The second header's comment made to claim 2^31 − 1 bytes.
+  const std::string key("comment\0string\0", 15);
+  const std::size_t second = bytes.find(key, bytes.find(key) + 1);
+  REQUIRE(second != std::string::npos);
+  bytes.replace(second + key.size(), 4, "\xff\xff\xff\x7f");
+  std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains("header attribute 'comment' claims 2147483647 bytes"));
+  std::remove(path.c_str());
+}
+
 TEST_CASE("the film's mean and variance of the mean follow the textbook formulas")
 {
   Film film(2, 1);
