@@ -164,17 +164,32 @@ TEST_CASE("readPng reads PNG files only, whatever their names, and 16-bit ones a
   std::remove(path.c_str());
 }
 
+namespace {
+// The float image fuzzer's regression `name` without its first byte (with which the fuzzer chose the format), after
+// checking that the file holds `size` bytes in all: the EXR itself.
+std::string regressionExr(const std::string& name, std::size_t size)
+{
+  std::ifstream in(std::string(RAYLIFE_FUZZ_FLOAT_IMAGE_REGRESSIONS) + "/" + name, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  REQUIRE(bytes.size() == size);
+  return bytes.substr(1);
+}
+
+// Writes `bytes` to the temporary file `name` and returns its path.
+std::string writeTemp(const std::string& name, const std::string& bytes)
+{
+  const std::string path = tempPath(name);
+  std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+  return path;
+}
+} // namespace
+
 TEST_CASE("an EXR whose tiles dwarf its pixels is refused before its buffers are allocated")
 {
   // The float image fuzzer's find (its first byte chose the format): 2,829 bytes of a 16x8 image whose tiles are 4
   // pixels wide and 33,554,436 tall. OpenEXR allocated a row of such tiles, 2 GB, before it found the pixel data
   // damaged; the fuzzer's replay cannot see that (the memory is never touched), so this test asks for the reason.
-  std::ifstream in(std::string(RAYLIFE_FUZZ_FLOAT_IMAGE_REGRESSIONS) + "/exr_tiles_far_taller_than_the_image.exr.bin",
-                   std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  REQUIRE(bytes.size() == 2830);
-  const std::string path = tempPath("tiles.exr");
-  std::ofstream(path, std::ios::binary).write(bytes.data() + 1, std::streamsize(bytes.size() - 1));
+  const std::string path = writeTemp("tiles.exr", regressionExr("exr_tiles_far_taller_than_the_image.exr.bin", 2830));
   CHECK_THROWS_WITH(readExr(path), Catch::Contains("tiles of 4x33554436 pixels are far larger than its 16x8 pixels"));
   std::remove(path.c_str());
 }
@@ -184,12 +199,8 @@ TEST_CASE("an EXR whose header attribute claims more bytes than the file holds i
   // The float image fuzzer's find: 672 bytes (after the byte that chose the format) whose "type" string attribute
   // claims 2,003,042,314 bytes. OpenEXR sized the string to that, 2 GB and 12 s of zeroes, before it found the file
   // too short; the fuzzer saw only the time. So this test asks for the reason, which only the check gives.
-  std::ifstream in(std::string(RAYLIFE_FUZZ_FLOAT_IMAGE_REGRESSIONS) + "/exr_string_attribute_claiming_2_gb.exr.bin",
-                   std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  REQUIRE(bytes.size() == 673);
-  const std::string path = tempPath("attribute.exr");
-  std::ofstream(path, std::ios::binary).write(bytes.data() + 1, std::streamsize(bytes.size() - 1));
+  const std::string path =
+      writeTemp("attribute.exr", regressionExr("exr_string_attribute_claiming_2_gb.exr.bin", 673));
   CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + ": the EXR's header attribute 'type' claims 2003042314 "
                                                           "bytes, and the file has 293 left"));
   std::remove(path.c_str());
@@ -199,13 +210,8 @@ TEST_CASE("a multi-part EXR passes the attribute check, and a lie in its second 
 {
   // Two parts of 4x3 pixels, R = 0.5, each header with a 300-byte "comment" string (made with OpenEXR's
   // MultiPartOutputFile). readExr reads the first part; the check walks every header up to the empty one.
-  std::ifstream in(std::string(RAYLIFE_FUZZ_FLOAT_IMAGE_REGRESSIONS) + "/multi_part_two_headers.exr.bin",
-                   std::ios::binary);
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  REQUIRE(bytes.size() == 1403);
-  bytes.erase(0, 1); // (the byte with which the fuzzer chose the format)
-  const std::string path = tempPath("parts.exr");
-  std::ofstream(path, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+  std::string bytes = regressionExr("multi_part_two_headers.exr.bin", 1403);
+  const std::string path = writeTemp("parts.exr", bytes);
   const Image image = readExr(path);
   CHECK(image.width == 4);
   CHECK(image.height == 3);
@@ -215,7 +221,7 @@ TEST_CASE("a multi-part EXR passes the attribute check, and a lie in its second 
   const std::size_t second = bytes.find(key, bytes.find(key) + 1);
   REQUIRE(second != std::string::npos);
   bytes.replace(second + key.size(), 4, "\xff\xff\xff\x7f");
-  std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+  writeTemp("parts.exr", bytes);
   CHECK_THROWS_WITH(readExr(path), Catch::Contains("header attribute 'comment' claims 2147483647 bytes"));
   std::remove(path.c_str());
 }
