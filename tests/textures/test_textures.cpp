@@ -191,7 +191,9 @@ TEST_CASE("bad image files: one message naming the file and the fault, as a scen
 TEST_CASE("a short image file that claims 16384 x 16384 texels is refused before they are allocated (PNG, EXR, PFM)")
 {
   // Each claims 2^28 texels, raylife's most, 3 GiB as floats, in a few bytes or kilobytes: allocated first, they
-  // cost 3 GiB and 13 to 15 s before the reader found the file cut short (found by fuzzing the PNG reader).
+  // cost 3 GiB and 13 to 15 s before the reader found the file cut short (found by fuzzing the PNG reader). The
+  // EXR whose chunk offsets all name one chunk cost 3 GB and 12 s as late as 2026-12-06: its pixels were zeroed
+  // before they were read; they are now read in strips.
   TempDir dir("short");
   std::string png = std::string("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\x40\0\0\0\x40\0", 24);
   png += std::string("\x08\x02\0\0\0\0\0\0\0", 9); // 8-bit RGB; a CRC, and nothing after it
@@ -210,11 +212,23 @@ TEST_CASE("a short image file that claims 16384 x 16384 texels is refused before
     }
     at = typeEnd + 5 + std::size_t(size);
   }
+  // Then the same header over 1,024 chunk offsets (16384 rows, 16 a ZIP chunk) that all point to sky.exr's first
+  // chunk, after them: the table is complete, so only reading the pixels finds the file wrong.
+  std::uint64_t firstChunk = 0;
+  std::memcpy(&firstChunk, &exr.at(at + 1), 8);
+  std::uint64_t secondChunk = 0;
+  std::memcpy(&secondChunk, &exr.at(at + 9), 8);
+  const std::uint64_t shared = at + 1 + 1024 * 8;
+  std::string offsets;
+  for (int i = 0; i < 1024; ++i)
+    offsets.append(reinterpret_cast<const char*>(&shared), 8);
+  const std::string exrShared = exr.substr(0, at + 1) + offsets + exr.substr(firstChunk, secondChunk - firstChunk);
   exr = exr.substr(0, at + 1) + std::string(16384 * 8, '\0');
   const std::string pfm = std::string("PF\n16384 16384\n-1.0\n") + std::string(64, '\0');
   const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
       {"short.png", png, "its header claims 16384x16384 texels, more than a file of 33 bytes can hold"},
       {"short.exr", exr, "the EXR is incomplete"},
+      {"shared.exr", exrShared, "cannot read the EXR"},
       {"short.pfm", pfm, "the PFM file is truncated (16384x16384 pixels need 3221225472 bytes"},
   };
   for (const auto& [name, bytes, fault] : cases) {

@@ -184,6 +184,24 @@ std::string writeTemp(const std::string& name, const std::string& bytes)
 }
 } // namespace
 
+TEST_CASE("an EXR of more rows than a strip reads back exactly")
+{
+  // readExr reads 256 rows at a time (a strip) and appends each to the image: 600 rows are two whole strips and a
+  // part of one, each pixel with a value of its own.
+  Image image(5, 600);
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x)
+      for (int c = 0; c < 3; ++c)
+        image.at(x, y, c) = float(y * 16 + x * 3 + c) + 0.25f;
+  const std::vector<unsigned char> bytes = encodeExr(image);
+  const std::string path = writeTemp("strips.exr", std::string(bytes.begin(), bytes.end()));
+  const Image back = readExr(path);
+  REQUIRE(back.width == 5);
+  REQUIRE(back.height == 600);
+  CHECK(back.pixels == image.pixels);
+  std::remove(path.c_str());
+}
+
 TEST_CASE("an EXR whose tiles dwarf its pixels is refused before its buffers are allocated")
 {
   // The float image fuzzer's find (its first byte chose the format): 2,829 bytes of a 16x8 image whose tiles are 4
