@@ -69,10 +69,64 @@ std::uint32_t littleEndian32(const unsigned char* p)
   return std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 | std::uint32_t(p[2]) << 16 | std::uint32_t(p[3]) << 24;
 }
 
+// The bytes OpenEXR 3.1 reads for an attribute of type `type` whose value is `value` (its declared size: the whole of
+// `value`, or only its first bytes where they suffice), or −1 where `value` is too short to say. OpenEXR reads most
+// types by their own layout, not by the size the header gives: a fixed number of bytes for numbers and vectors, a
+// channel list up to its empty name. Strings, types it does not know and the ones not listed here it reads by the size.
+std::int64_t exrValueBytes(const std::string& type, const std::string& value)
+{
+  static const std::pair<const char*, int> fixed[] = {
+      {"box2i", 16}, {"box2f", 16},  {"chromaticities", 32}, {"compression", 1}, {"deepImageState", 1},
+      {"double", 8}, {"envmap", 1},  {"float", 4},           {"int", 4},         {"keycode", 28},
+      {"lineOrder", 1}, {"m33f", 36}, {"m33d", 72},          {"m44f", 64},       {"m44d", 128},
+      {"rational", 8}, {"tiledesc", 9}, {"timecode", 8},     {"v2i", 8},         {"v2f", 8},
+      {"v2d", 16},   {"v3i", 12},    {"v3f", 12},            {"v3d", 24}};
+  for (const auto& [name, bytes] : fixed)
+    if (type == name)
+      return bytes;
+  const auto* v = reinterpret_cast<const unsigned char*>(value.data());
+  if (type == "chlist") { // names of up to 255 characters, each with its 0 and 16 bytes more, then an empty name
+    for (std::size_t i = 0; i < value.size();) {
+      const std::size_t end = value.find('\0', i);
+      if (end == std::string::npos || end - i > 255)
+        return -1;
+      if (end == i)
+        return std::int64_t(end + 1);
+      i = end + 17;
+    }
+    return -1;
+  }
+  if (type == "stringvector") { // strings, each a 32-bit length and its characters, up to the size
+    std::int64_t read = 0;
+    while (read < std::int64_t(value.size())) {
+      if (read + 4 > std::int64_t(value.size()))
+        return -1;
+      const std::int64_t length = std::int32_t(littleEndian32(v + read));
+      if (length < 0)
+        return -1;
+      read += 4 + length;
+    }
+    return read;
+  }
+  if (type == "preview") { // width and height, then 4 bytes a pixel
+    if (value.size() < 8)
+      return -1;
+    const double bytes = 8 + 4 * double(littleEndian32(v)) * double(littleEndian32(v + 4));
+    return bytes > double(value.size()) ? -1 : std::int64_t(bytes);
+  }
+  if (type == "floatvector")
+    return std::int64_t(value.size() / 4 * 4);
+  return std::int64_t(value.size());
+}
+
 // Checks an EXR's headers before OpenEXR opens it, for what OpenEXR would allocate before it found the file wrong:
-//  - an attribute that claims more bytes than are left in the file. OpenEXR sizes an attribute's value (a string,
-//    or a type it does not know) as the file says before it reads it: the float image fuzzer found a file of 672
-//    bytes whose "type" string claimed 2,003,042,314, which cost 2 GB and 12 s before OpenEXR found it too short;
+//  - an attribute that claims more bytes than are left in the file. OpenEXR sizes a string's value as the file says
+//    before it reads it: the float image fuzzer found a file of 672 bytes whose "type" string claimed 2,003,042,314,
+//    which cost 2 GB and 12 s before OpenEXR found it too short;
+//  - an attribute whose value is not the size its header gives (exrValueBytes): OpenEXR reads it by its layout, so
+//    the next attribute would begin elsewhere for OpenEXR than for this check, which would miss a lie there. (The
+//    fuzzer found one: a channel list one byte longer than its size, then a string that claimed 2 GB.) No writer
+//    makes such a file;
 //  - tiles far larger than the image (checkTiles). InputFile's constructor allocates their buffers (untouched, so
 //    only address space, except under AddressSanitizer, which spent 7 s of a fuzzer's run zeroing them as it freed
 //    them).
@@ -122,30 +176,33 @@ void checkExrHeaders(const std::string& path)
       return;
     const std::int64_t bytes = std::int32_t(littleEndian32(size));
     const std::int64_t left = std::int64_t(fileSize) - std::int64_t(in.tellg());
+    const std::string what = path + ": the EXR's header attribute '" + printable(name) + "' (" + printable(type) + ")";
     if (bytes < 0 || bytes > left)
-      throw ImageIoError(path + ": the EXR's header attribute '" + printable(name) + "' claims " +
-                         std::to_string(bytes) + " bytes, and the file has " + std::to_string(left) + " left");
-    const bool kept = (name == "dataWindow" && type == "box2i" && bytes == 16) ||
-                      (name == "tiles" && type == "tiledesc" && bytes == 9) || (name == "channels" && type == "chlist");
-    if (!kept) {
+      throw ImageIoError(what + " claims " + std::to_string(bytes) + " bytes, and the file has " +
+                         std::to_string(left) + " left");
+    // The value itself where its layout matters (a string's characters are only skipped).
+    if (type == "string") {
       in.seekg(bytes, std::ios::cur);
       continue;
     }
     value.resize(std::size_t(bytes));
     if (!in.read(value.data(), bytes))
       return;
+    const std::int64_t takes = exrValueBytes(type, value);
+    if (takes != bytes)
+      throw ImageIoError(what + " says its value is " + std::to_string(bytes) + " bytes, but " +
+                         (takes < 0 ? std::string("its layout does not fit in them")
+                                    : "its layout takes " + std::to_string(takes)));
     const auto* v = reinterpret_cast<const unsigned char*>(value.data());
-    if (name == "dataWindow") { // xMin, yMin, xMax, yMax
+    if (name == "dataWindow" && type == "box2i") { // xMin, yMin, xMax, yMax
       const auto at = [v](int i) { return long(std::int32_t(littleEndian32(v + 4 * i))); };
       width = at(2) - at(0) + 1, height = at(3) - at(1) + 1;
-    } else if (name == "tiles") { // width, height, mode
+    } else if (name == "tiles" && type == "tiledesc") { // width, height, mode
       tileWidth = littleEndian32(v), tileHeight = littleEndian32(v + 4);
-    } else { // channels: a name and its 0, then the pixel type (1: half; 0, 2: 32 bits) and 12 bytes more; a 0 ends
+    } else if (name == "channels" && type == "chlist") { // per channel: its name, then its type (1: half), ...
       bytesPerPixel = 0;
-      for (std::size_t i = 0; i < value.size() && value[i] != 0;) {
+      for (std::size_t i = 0; value[i] != 0;) {
         const std::size_t end = value.find('\0', i);
-        if (end == std::string::npos || end + 17 > value.size())
-          break;
         bytesPerPixel += littleEndian32(v + end + 1) == 1 ? 2 : 4;
         i = end + 17;
       }

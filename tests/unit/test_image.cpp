@@ -219,8 +219,44 @@ TEST_CASE("an EXR whose header attribute claims more bytes than the file holds i
   // too short; the fuzzer saw only the time. So this test asks for the reason, which only the check gives.
   const std::string path =
       writeTemp("attribute.exr", regressionExr("exr_string_attribute_claiming_2_gb.exr.bin", 673));
-  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + ": the EXR's header attribute 'type' claims 2003042314 "
-                                                          "bytes, and the file has 293 left"));
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + ": the EXR's header attribute 'type' (string) claims "
+                                                          "2003042314 bytes, and the file has 293 left"));
+  std::remove(path.c_str());
+}
+
+TEST_CASE("an EXR attribute whose value is not the size its header gives is refused")
+{
+  // The float image fuzzer's next find: a channel list of 55 bytes (three channels and the empty name) whose header
+  // says 54. OpenEXR reads a channel list to its empty name, so its next attribute began a byte later than the size
+  // said: a string there claimed 2 GB. The check walks the header by the sizes, so it must refuse what OpenEXR
+  // would read otherwise.
+  const std::string path =
+      writeTemp("channels.exr", regressionExr("exr_channel_list_longer_than_its_size.exr.bin", 658));
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains(": the EXR's header attribute 'channels' (chlist) says its value "
+                                                   "is 54 bytes, but its layout does not fit in them"));
+  // And a number with a size other than its type's: an int of 4 bytes said to be 5 (the next byte is the next
+  // attribute's name for OpenEXR, which reads an int as 4).
+  std::string bytes = regressionExr("multi_part_two_headers.exr.bin", 1403);
+  const std::string key("chunkCount\0int\0\x04\0\0\0", 19);
+  const std::size_t at = bytes.find(key);
+  REQUIRE(at != std::string::npos);
+  bytes[at + 15] = 5;
+  writeTemp("channels.exr", bytes);
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains("'chunkCount' (int) says its value is 5 bytes, but its layout "
+                                                   "takes 4"));
+  std::remove(path.c_str());
+}
+
+TEST_CASE("an EXR with an attribute of every common type passes the attribute check")
+{
+  // Made with OpenEXR: 7x5 half RGBA of 0.5, with a preview image, a multiView string vector, chromaticities, a key
+  // code, a time code, strings, an envmap, a rational, a 4x4 matrix, a double, a V3f and a float vector: each value
+  // is the size its header gives, and the check must take each as OpenEXR does.
+  const std::string path = writeTemp("attributes.exr", regressionExr("many_attribute_types.exr.bin", 1008));
+  const Image image = readExr(path);
+  CHECK(image.width == 7);
+  CHECK(image.height == 5);
+  CHECK(image.at(6, 4, 2) == 0.5f);
   std::remove(path.c_str());
 }
 
@@ -240,7 +276,7 @@ TEST_CASE("a multi-part EXR passes the attribute check, and a lie in its second 
   REQUIRE(second != std::string::npos);
   bytes.replace(second + key.size(), 4, "\xff\xff\xff\x7f");
   writeTemp("parts.exr", bytes);
-  CHECK_THROWS_WITH(readExr(path), Catch::Contains("header attribute 'comment' claims 2147483647 bytes"));
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains("header attribute 'comment' (string) claims 2147483647 bytes"));
   std::remove(path.c_str());
 }
 
