@@ -243,7 +243,7 @@ Image readExr(const std::string& path)
     Imf::InputFile file(path.c_str());
     const Imath::Box2i window = file.header().dataWindow();
     const long width = long(window.max.x) - window.min.x + 1, height = long(window.max.y) - window.min.y + 1;
-    if (width <= 0 || height <= 0 || width * height > (1L << 28))
+    if (width <= 0 || height <= 0 || width > (1L << 28) / height) // (a product of two sides of 2^32 overflows)
       throw ImageIoError(path + ": bad EXR data window (" + std::to_string(width) + "x" + std::to_string(height) + ")");
     // Before the pixels are allocated: a header that claims 16384x16384 pixels over a table of chunks that are not
     // there cost 3 GiB and 15 s before readPixels found them missing.

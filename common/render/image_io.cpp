@@ -132,13 +132,24 @@ Image readPfm(const std::string& path)
   long width = 0, height = 0;
   double scale = 0;
   try {
-    width = std::stol(readToken(in));
-    height = std::stol(readToken(in));
-    scale = std::stod(readToken(in));
+    // Each token whole: std::stol alone took "4\xce2" as 4.
+    const auto whole = [](const std::string& token, std::size_t used) {
+      if (used != token.size())
+        throw std::invalid_argument(token);
+    };
+    std::size_t used = 0;
+    const std::string w = readToken(in), h = readToken(in), sc = readToken(in);
+    width = std::stol(w, &used);
+    whole(w, used);
+    height = std::stol(h, &used);
+    whole(h, used);
+    scale = std::stod(sc, &used);
+    whole(sc, used);
   } catch (const std::exception&) {
     throw ImageIoError(path + ": malformed PFM header");
   }
-  if (width <= 0 || height <= 0 || width * height > (1L << 28) || scale == 0 || !std::isfinite(scale))
+  // (width > 2^28 / height, not width·height > 2^28: the sides may be anything a long holds, and so overflow it.)
+  if (width <= 0 || height <= 0 || width > (1L << 28) / height || scale == 0 || !std::isfinite(scale))
     throw ImageIoError(path + ": bad PFM header (size " + std::to_string(width) + "x" + std::to_string(height) + ")");
   const bool swap = scale > 0; // positive scale: big-endian data
   // The pixels' bytes, counted before the image is allocated: a short file that claims 16384x16384 pixels would

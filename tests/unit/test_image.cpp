@@ -51,6 +51,26 @@ TEST_CASE("the PFM file stores the bottom row first - little-endian - as the for
   CHECK(first == 2.0f);
 }
 
+TEST_CASE("a PFM header with sides whose product overflows, or with junk in a number, is refused")
+{
+  // The float image fuzzer's find: "Pf", then 4 and 4444444444444444444 (with junk after the 4). The check of
+  // width·height overflowed a long (undefined; here it wrapped negative and passed), and raylife_image then ended in
+  // an uncaught std::length_error making the image. The 4 had been read from "4\xce2".
+  const std::string path = tempPath("sides.pfm");
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"PF\n4 4444444444444444444\n-1\n", "bad PFM header (size 4x4444444444444444444)"},
+      {"PF\n4444444444444444444 4\n-1\n", "bad PFM header (size 4444444444444444444x4)"},
+      {"Pf\n4\xce" "2 2\n-1\n", "malformed PFM header"},
+      {"PF\n2 2\n-1x\n", "malformed PFM header"},
+  };
+  for (const auto& [header, fault] : cases) {
+    CAPTURE(header);
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << header << std::string(4096, '\0');
+    CHECK_THROWS_WITH(readPfm(path), Catch::Contains(fault));
+  }
+  std::remove(path.c_str());
+}
+
 TEST_CASE("PNG is clamped and sRGB-encoded and decodes back to linear within 8-bit steps")
 {
   CHECK(linearToSrgb(0.0f) == 0.0f);
