@@ -69,6 +69,9 @@ void checkPlyHeader(std::span<const char> bytes, const std::string& name)
   bool binary = false, fixedSoFar = true, ended = false;
   // The bytes the elements before the first list property need (a list's length is in the data).
   unsigned long long fixedBytes = 0, rowBytes = 0, rows = 0;
+  // In an ASCII file, the numbers the rows hold at the least: one a property (a list's is its length), each a
+  // character and a space or line end. (In double: a count of 10^12 rows times many properties overflows 64 bits.)
+  double tokens = 0, rowTokens = 0;
   while (at < text.size()) {
     const std::size_t end = text.find('\n', at);
     if (end == std::string_view::npos)
@@ -111,18 +114,21 @@ void checkPlyHeader(std::span<const char> bytes, const std::string& name)
         fail(where + "an element needs a name and a whole count");
       if (fixedSoFar)
         fixedBytes += rows * rowBytes;
+      tokens += double(rows) * rowTokens;
       rows = std::stoull(std::string(words[2]));
-      rowBytes = 0;
+      rowBytes = 0, rowTokens = 0;
     } else if (words[0] == "property") {
       if (words.size() == 5 && words[1] == "list") {
         if (!kTypeSizes.count(words[2]) || !kTypeSizes.count(words[3]))
           fail(where + "an unknown type in a list property");
         fixedSoFar = false;
+        ++rowTokens;
       } else if (words.size() == 3) {
         const auto type = kTypeSizes.find(words[1]);
         if (type == kTypeSizes.end())
           fail(where + "an unknown property type"); // (not echoed: the file's bytes may not be text)
         rowBytes += type->second;
+        ++rowTokens;
       } else {
         fail(where + "a property needs a type and a name");
       }
@@ -135,7 +141,10 @@ void checkPlyHeader(std::span<const char> bytes, const std::string& name)
     fail("the header has no end_header line");
   if (fixedSoFar)
     fixedBytes += rows * rowBytes;
-  if (binary && fixedBytes > text.size() - at)
+  tokens += double(rows) * rowTokens;
+  // (An ASCII header that announced 400 million vertices over a line of data cost 58 s and 4.7 GB in Assimp's
+  // process before it aborted.)
+  if ((binary && fixedBytes > text.size() - at) || (!binary && 2 * tokens - 1 > double(text.size() - at)))
     fail("the file ends before the data its header announces");
 }
 
