@@ -73,7 +73,8 @@ std::uint32_t littleEndian32(const unsigned char* p)
 // `value`, or only its first bytes where they suffice), or −1 where `value` is too short to say. OpenEXR reads most
 // types by their own layout, not by the size the header gives: a fixed number of bytes for numbers and vectors, a
 // channel list up to its empty name. Strings, types it does not know and the ones not listed here it reads by the size.
-std::int64_t exrValueBytes(const std::string& type, const std::string& value)
+// For a channel list, `bytesPerPixel` is set to its channels' bytes a pixel (2 for half, 4 for the others).
+std::int64_t exrValueBytes(const std::string& type, const std::string& value, double& bytesPerPixel)
 {
   static const std::pair<const char*, int> fixed[] = {
       {"box2i", 16}, {"box2f", 16},  {"chromaticities", 32}, {"compression", 1}, {"deepImageState", 1},
@@ -86,12 +87,15 @@ std::int64_t exrValueBytes(const std::string& type, const std::string& value)
       return bytes;
   const auto* v = reinterpret_cast<const unsigned char*>(value.data());
   if (type == "chlist") { // names of up to 255 characters, each with its 0 and 16 bytes more, then an empty name
+    bytesPerPixel = 0;
     for (std::size_t i = 0; i < value.size();) {
       const std::size_t end = value.find('\0', i);
       if (end == std::string::npos || end - i > 255)
         return -1;
       if (end == i)
         return std::int64_t(end + 1);
+      if (end + 5 <= value.size()) // the pixel type, the first of the 16 bytes (1: half)
+        bytesPerPixel += littleEndian32(v + end + 1) == 1 ? 2 : 4;
       i = end + 17;
     }
     return -1;
@@ -188,7 +192,8 @@ void checkExrHeaders(const std::string& path)
     value.resize(std::size_t(bytes));
     if (!in.read(value.data(), bytes))
       return;
-    const std::int64_t takes = exrValueBytes(type, value);
+    double channelBytes = 0;
+    const std::int64_t takes = exrValueBytes(type, value, channelBytes);
     if (takes != bytes)
       throw ImageIoError(what + " says its value is " + std::to_string(bytes) + " bytes, but " +
                          (takes < 0 ? std::string("its layout does not fit in them")
@@ -199,13 +204,8 @@ void checkExrHeaders(const std::string& path)
       width = at(2) - at(0) + 1, height = at(3) - at(1) + 1;
     } else if (name == "tiles" && type == "tiledesc") { // width, height, mode
       tileWidth = littleEndian32(v), tileHeight = littleEndian32(v + 4);
-    } else if (name == "channels" && type == "chlist") { // per channel: its name, then its type (1: half), ...
-      bytesPerPixel = 0;
-      for (std::size_t i = 0; value[i] != 0;) {
-        const std::size_t end = value.find('\0', i);
-        bytesPerPixel += littleEndian32(v + end + 1) == 1 ? 2 : 4;
-        i = end + 17;
-      }
+    } else if (name == "channels" && type == "chlist") {
+      bytesPerPixel = channelBytes;
     }
   }
 }
