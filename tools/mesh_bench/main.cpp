@@ -5,7 +5,8 @@
 // chapter uses it.
 //
 // usage: mesh_bench MESH.ply|MESH.obj|SCENE.json [--size WxH] [--seconds S] [--seed N] [--build-rounds R]
-//                   [--no-embree] [--embree-isa ISA] [--check] [--passes N camera|bounce|embree-camera|embree-bounce]
+//                   [--no-embree] [--embree-isa ISA] [--embree-robust] [--check]
+//                   [--passes N camera|bounce|embree-camera|embree-bounce]
 //   Rays: a camera looking at the mesh from outside its bounding sphere, one ray through each pixel (W×H, default
 //   512x512), and from every camera hit one ray in a cosine-distributed direction about the surface's normal (the
 //   rays a diffuse bounce makes). A scene: its triangles (every mesh, placed as the scene places it; its spheres
@@ -18,6 +19,9 @@
 //   max_isa), where by default Embree takes the widest the CPU has. Its widest is not always its fastest: on an AMD
 //   Zen 4, whose AVX-512 runs in halves of 256 bits, Embree's AVX2 kernels trace these rays faster than its AVX-512
 //   ones, so a fair yardstick there is `--embree-isa avx2`. The line "Embree's kernels" says which set they use.
+//   --embree-robust: Embree's scene built with RTC_SCENE_FLAG_ROBUST, its mode for rays that must not slip between
+//   neighbouring triangles (a conservative box test, and its Plücker triangle test without the shortcuts that lose
+//   precision), which is what raylife always does (its watertight test). By default Embree runs its fast mode.
 //   --check: exit 1 if raylife and Embree disagree (hit, or distance) on more than 0.1 % of the rays.
 //   --passes N SET: instead of the timings, N passes of one set of rays through one of the two (raylife's by
 //   default, Embree's for embree-…), then exit: a fixed amount of work for a profiler. The difference between two
@@ -150,6 +154,7 @@ struct Options {
   int buildRounds = 2; // each build timed this many times on one thread and on every core, the best kept
   bool embree = true;
   std::string embreeIsa; // --embree-isa: Embree's max_isa; empty: Embree's own choice, the widest the CPU has
+  bool embreeRobust = false; // --embree-robust: Embree's scene in its robust mode (RTC_SCENE_FLAG_ROBUST)
   bool check = false; // exit 1 when raylife and Embree disagree on more than 0.1 % of the rays
   // --passes N SET: only N passes of one query set (camera or bounce, raylife's; embree-camera or embree-bounce),
   // untimed, then exit: a fixed amount of work for a profiler. 0: off.
@@ -186,6 +191,8 @@ bool parse(int argc, char** argv, Options& o)
       o.check = true;
     } else if (arg == "--no-embree") {
       o.embree = false;
+    } else if (arg == "--embree-robust") {
+      o.embreeRobust = true;
     } else if (arg == "--embree-isa" && i + 1 < argc) {
       // (Embree takes a name it does not know as SSE without a word: only its own names get through.)
       o.embreeIsa = argv[++i];
@@ -211,7 +218,7 @@ int main(int argc, char** argv)
   Options o;
   if (!parse(argc, argv, o)) {
     std::fprintf(stderr, "usage: mesh_bench MESH.ply|MESH.obj|SCENE.json [--size WxH] [--seconds S] [--seed N] "
-                         "[--build-rounds R] [--no-embree] [--embree-isa sse2|sse4.2|avx|avx2|avx512] [--check] "
+                         "[--build-rounds R] [--no-embree] [--embree-isa sse2|sse4.2|avx|avx2|avx512] [--embree-robust] [--check] "
                          "[--passes N camera|bounce|embree-camera|embree-bounce]\n");
     return 2;
   }
@@ -226,6 +233,10 @@ int main(int argc, char** argv)
   if (!o.embreeIsa.empty() && !embree) {
     std::fprintf(stderr, "mesh_bench: --embree-isa %s needs Embree: built with the embree preset, without --no-embree\n",
                  o.embreeIsa.c_str());
+    return 2;
+  }
+  if (o.embreeRobust && !embree) {
+    std::fprintf(stderr, "mesh_bench: --embree-robust needs Embree: built with the embree preset, without --no-embree\n");
     return 2;
   }
   if (o.passSet.rfind("embree", 0) == 0 && !embree) {
@@ -406,6 +417,8 @@ int main(int argc, char** argv)
     // core lived, the one-thread device's builds took two cores' CPU time.)
     auto makeScene = [&](RTCDevice on) {
       RTCScene made = rtcNewScene(on);
+      if (o.embreeRobust)
+        rtcSetSceneFlags(made, RTC_SCENE_FLAG_ROBUST);
       RTCGeometry geometry = rtcNewGeometry(on, RTC_GEOMETRY_TYPE_TRIANGLE);
       auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0,
                                                                    RTC_FORMAT_FLOAT3, 3 * sizeof(float),
@@ -454,8 +467,9 @@ int main(int argc, char** argv)
     const char* kernels = rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) ? "AVX-512"
                           : rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) ? "AVX or AVX2"
                                                                                                     : "SSE";
-    std::printf("Embree's kernels: %s (%s)\n", kernels,
-                o.embreeIsa.empty() ? "its own choice for this CPU" : ("at most " + o.embreeIsa + ", as asked").c_str());
+    std::printf("Embree's kernels: %s (%s), %s mode\n", kernels,
+                o.embreeIsa.empty() ? "its own choice for this CPU" : ("at most " + o.embreeIsa + ", as asked").c_str(),
+                o.embreeRobust ? "robust (RTC_SCENE_FLAG_ROBUST)" : "its default, fast");
     std::printf("Embree BVH, default quality, best of %d: %.3f s on 1 thread (CPU %.3f s), %.3f s on %d (CPU %.3f s)\n",
                 o.buildRounds, theirBuild[0], theirCpu[0], theirBuild[1], cores, theirCpu[1]);
     std::printf("build, each on its best thread count: raylife %.3f s (%d thread%s) / Embree %.3f s (%d thread%s) = "
