@@ -52,7 +52,7 @@ void checkTiles(const std::string& path, long width, long height, std::uint32_t 
                 double bytesPerPixel)
 {
   if (width <= 0 || height <= 0)
-    return; // (said after OpenEXR has read the header)
+    return; // (no data window: OpenEXR says so)
   const double pixelBytes = std::max(bytesPerPixel, double(3 * sizeof(float)));
   const double allowed = std::max(4 * double(width) * double(height) * pixelBytes, double(64 << 20));
   const double rowBytes = double(width) * double(tileHeight) * double(3 * sizeof(float));
@@ -61,6 +61,14 @@ void checkTiles(const std::string& path, long width, long height, std::uint32_t 
     throw ImageIoError(path + ": the EXR's tiles of " + std::to_string(tileWidth) + "x" + std::to_string(tileHeight) +
                        " pixels are far larger than its " + std::to_string(width) + "x" + std::to_string(height) +
                        " pixels");
+}
+
+// A data window of width x height pixels: refused where empty, or beyond the 2^28 pixels an image may have.
+// (Divided, not multiplied: a product of two sides of up to 2^32 overflows.)
+void checkDataWindow(const std::string& path, long width, long height)
+{
+  if (width <= 0 || height <= 0 || width > (1L << 28) / height)
+    throw ImageIoError(path + ": bad EXR data window (" + std::to_string(width) + "x" + std::to_string(height) + ")");
 }
 
 // A little-endian 32-bit integer at `p`.
@@ -131,9 +139,10 @@ std::int64_t exrValueBytes(const std::string& type, const std::string& value, do
 //    the next attribute would begin elsewhere for OpenEXR than for this check, which would miss a lie there. (The
 //    fuzzer found one: a channel list one byte longer than its size, then a string that claimed 2 GB.) No writer
 //    makes such a file;
-//  - tiles far larger than the image (checkTiles). InputFile's constructor allocates their buffers (untouched, so
-//    only address space, except under AddressSanitizer, which spent 7 s of a fuzzer's run zeroing them as it freed
-//    them).
+//  - tiles far larger than the image (checkTiles), and a data window beyond 2^28 pixels (checkDataWindow).
+//    InputFile's constructor allocates buffers for them (untouched, so only address space, except under
+//    AddressSanitizer, which spent 7 s of a fuzzer's run zeroing a tile's as it freed them, and took the fuzzer past
+//    its 10 s limit on the line buffers of a data window 5,308,423 pixels wide).
 // A header is attributes (a name and a type name, each ending in a 0, then the value's size, a 32-bit little-endian
 // integer, and the value) ended by a 0; a multi-part file has one header a part, and an empty one after the last.
 // Anything else that is wrong is left to OpenEXR to say.
@@ -162,17 +171,20 @@ void checkExrHeaders(const std::string& path)
   };
   // What the header so far says of its data window, its tiles and its channels' bytes a pixel.
   long width = 0, height = 0;
+  bool window = false;
   std::uint32_t tileWidth = 0, tileHeight = 0;
   double bytesPerPixel = 0;
   for (std::string name, type, value;;) {
     if (!readName(name))
       return;
     if (name.empty()) { // the end of a header; a multi-part file's headers end with an empty one
+      if (window)
+        checkDataWindow(path, width, height);
       if (tileWidth > 0 || tileHeight > 0)
         checkTiles(path, width, height, tileWidth, tileHeight, bytesPerPixel);
       if (!multiPart || in.peek() == 0)
         return;
-      width = height = 0, tileWidth = tileHeight = 0, bytesPerPixel = 0;
+      width = height = 0, window = false, tileWidth = tileHeight = 0, bytesPerPixel = 0;
       continue;
     }
     unsigned char size[4];
@@ -201,7 +213,7 @@ void checkExrHeaders(const std::string& path)
     const auto* v = reinterpret_cast<const unsigned char*>(value.data());
     if (name == "dataWindow" && type == "box2i") { // xMin, yMin, xMax, yMax
       const auto at = [v](int i) { return long(std::int32_t(littleEndian32(v + 4 * i))); };
-      width = at(2) - at(0) + 1, height = at(3) - at(1) + 1;
+      width = at(2) - at(0) + 1, height = at(3) - at(1) + 1, window = true;
     } else if (name == "tiles" && type == "tiledesc") { // width, height, mode
       tileWidth = littleEndian32(v), tileHeight = littleEndian32(v + 4);
     } else if (name == "channels" && type == "chlist") {
@@ -243,8 +255,7 @@ Image readExr(const std::string& path)
     Imf::InputFile file(path.c_str());
     const Imath::Box2i window = file.header().dataWindow();
     const long width = long(window.max.x) - window.min.x + 1, height = long(window.max.y) - window.min.y + 1;
-    if (width <= 0 || height <= 0 || width > (1L << 28) / height) // (a product of two sides of 2^32 overflows)
-      throw ImageIoError(path + ": bad EXR data window (" + std::to_string(width) + "x" + std::to_string(height) + ")");
+    checkDataWindow(path, width, height);
     // Before the pixels are allocated: a header that claims 16384x16384 pixels over a table of chunks that are not
     // there cost 3 GiB and 15 s before readPixels found them missing.
     if (!file.isComplete())
