@@ -140,9 +140,9 @@ std::int64_t exrValueBytes(const std::string& type, const std::string& value, do
 //    fuzzer found one: a channel list one byte longer than its size, then a string that claimed 2 GB.) No writer
 //    makes such a file;
 //  - tiles far larger than the image (checkTiles), and a data window beyond 2^28 pixels (checkDataWindow).
-//    InputFile's constructor allocates buffers for them (untouched, so only address space, except under
-//    AddressSanitizer, which spent 7 s of a fuzzer's run zeroing a tile's as it freed them, and took the fuzzer past
-//    its 10 s limit on the line buffers of a data window 5,308,423 pixels wide).
+//    InputFile's constructor allocates buffers for them: untouched, so only address space, but AddressSanitizer
+//    spent 7 s of a fuzzer's run freeing a row of such tiles, and went past the fuzzer's 10 s limit freeing the line
+//    buffers of a data window 5,308,423 pixels wide.
 // A header is attributes (a name and a type name, each ending in a 0, then the value's size, a 32-bit little-endian
 // integer, and the value) ended by a 0; a multi-part file has one header a part, and an empty one after the last.
 // Anything else that is wrong is left to OpenEXR to say.

@@ -218,8 +218,8 @@ int main(int argc, char** argv)
   Options o;
   if (!parse(argc, argv, o)) {
     std::fprintf(stderr, "usage: mesh_bench MESH.ply|MESH.obj|SCENE.json [--size WxH] [--seconds S] [--seed N] "
-                         "[--build-rounds R] [--no-embree] [--embree-isa sse2|sse4.2|avx|avx2|avx512] [--embree-robust] [--check] "
-                         "[--passes N camera|bounce|embree-camera|embree-bounce]\n");
+                         "[--build-rounds R] [--no-embree] [--embree-isa sse2|sse4.2|avx|avx2|avx512] "
+                         "[--embree-robust] [--check] [--passes N camera|bounce|embree-camera|embree-bounce]\n");
     return 2;
   }
   bool embree = false; // Embree's queries measured too
@@ -236,7 +236,8 @@ int main(int argc, char** argv)
     return 2;
   }
   if (o.embreeRobust && !embree) {
-    std::fprintf(stderr, "mesh_bench: --embree-robust needs Embree: built with the embree preset, without --no-embree\n");
+    std::fprintf(stderr,
+                 "mesh_bench: --embree-robust needs Embree: built with the embree preset, without --no-embree\n");
     return 2;
   }
   if (o.passSet.rfind("embree", 0) == 0 && !embree) {
