@@ -19,9 +19,10 @@
 //   max_isa), where by default Embree takes the widest the CPU has. Its widest is not always its fastest: on an AMD
 //   Zen 4, whose AVX-512 runs in halves of 256 bits, Embree's AVX2 kernels trace these rays faster than its AVX-512
 //   ones, so a fair yardstick there is `--embree-isa avx2`. The line "Embree's kernels" says which set they use.
-//   --embree-robust: Embree's scene built with RTC_SCENE_FLAG_ROBUST, its mode for rays that must not slip between
-//   neighbouring triangles (a conservative box test, and its Plücker triangle test without the shortcuts that lose
-//   precision), which is what raylife always does (its watertight test). By default Embree runs its fast mode.
+//   --embree-robust: Embree's scene built with RTC_SCENE_FLAG_ROBUST, its mode without its default one's shortcuts:
+//   a robust box test, and its Plücker triangle test in place of Möller and Trumbore's, through which a ray can slip
+//   between neighbouring triangles. raylife never takes those shortcuts (its box test is conservative, its triangle
+//   test watertight), so this is the like-for-like yardstick. By default Embree runs its fast mode.
 //   --check: exit 1 if raylife and Embree disagree (hit, or distance) on more than 0.1 % of the rays.
 //   --passes N SET: instead of the timings, N passes of one set of rays through one of the two (raylife's by
 //   default, Embree's for embree-…), then exit: a fixed amount of work for a profiler. The difference between two
@@ -231,7 +232,8 @@ int main(int argc, char** argv)
     return 2;
   }
   if (!o.embreeIsa.empty() && !embree) {
-    std::fprintf(stderr, "mesh_bench: --embree-isa %s needs Embree: built with the embree preset, without --no-embree\n",
+    std::fprintf(stderr,
+                 "mesh_bench: --embree-isa %s needs Embree: built with the embree preset, without --no-embree\n",
                  o.embreeIsa.c_str());
     return 2;
   }
