@@ -1,5 +1,5 @@
 /// @file threads.h
-/// @brief How many threads a render takes when the command line does not say.
+/// @brief How many threads a render or a pre-pass takes: what --threads asks, else OpenMP's default, capped.
 #pragma once
 
 #include <omp.h>
@@ -13,8 +13,8 @@ namespace raylife {
 /// every chapter in GOMP_parallel, before any of its threads ran.)
 inline constexpr int kMaxThreads = 1024;
 
-/// The threads a parallel loop takes when --threads names none: OpenMP's default (OMP_NUM_THREADS, else one per
-/// core), at most kMaxThreads; at least 1.
-inline int defaultThreads() { return std::clamp(omp_get_max_threads(), 1, kMaxThreads); }
+/// The threads a parallel loop takes: `asked` where it is positive (--threads, already within 1 to kMaxThreads),
+/// else OpenMP's default (OMP_NUM_THREADS, else one per core) capped at kMaxThreads; at least 1.
+inline int threadCount(int asked) { return asked > 0 ? asked : std::clamp(omp_get_max_threads(), 1, kMaxThreads); }
 
 } // namespace raylife

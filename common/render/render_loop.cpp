@@ -140,7 +140,7 @@ RenderResult renderLoop(const Scene& scene, const Camera& camera, const RenderSe
   RenderResult result{Film(settings.beside ? 2 * width : width, height)};
   const std::vector<Tile> allTiles = makeTiles(width, height, settings.tileSize > 0 ? settings.tileSize : kTileSize);
   std::vector<Tile> tiles = allTiles; // the work of a batch (adaptive sampling narrows it to the active pixels)
-  const int threads = settings.threads > 0 ? settings.threads : defaultThreads();
+  const int threads = threadCount(settings.threads);
   // The samples to take here; with a time budget, until the time is spent, but at most this process's share of
   // the most a pixel may hold.
   const bool untilTime = !settings.spp && settings.seconds;

@@ -477,7 +477,7 @@ int runAnyChapter(int argc, char** argv, const ChapterInfo& chapter, const Optio
       json << "{\"chapter\": \"" << name << "\", \"width\": " << mean.width << ", \"height\": " << height
            << ", \"spp\": " << result.spp << ", \"seconds\": " << result.seconds << ", \"rays\": " << result.rays
            << ", \"bad_samples\": " << result.badSamples << ", \"threads\": "
-           << (settings.threads > 0 ? settings.threads : defaultThreads())
+           << threadCount(settings.threads)
            << ", \"interrupted\": " << (result.interrupted ? "true" : "false")
            << ", \"mean_spp\": " << result.meanSpp << ", \"max_spp\": " << maxSpp << ", \"adaptive\": " << (settings.adaptive ? "true" : "false")
            << ", \"ranks\": " << ranks.size() << ", \"camera_rays\": " << result.cameraRays;

@@ -386,7 +386,7 @@ void LightSampler::learn(const LightGuiding& guiding)
   for (std::size_t i = 0; i < points.size(); ++i)
     pointCell[i] = cellOf(points[i].hit.point);
   std::vector<char> wanted(cells * n, 1); // per cell and light: draw its samples in this round
-  const int threads = guiding.threads > 0 ? guiding.threads : defaultThreads();
+  const int threads = threadCount(guiding.threads);
   const auto drawRound = [&](int from, int to) {
 #pragma omp parallel for schedule(dynamic, 64) num_threads(threads)
     for (std::ptrdiff_t ii = 0; ii < std::ptrdiff_t(points.size()); ++ii) {
