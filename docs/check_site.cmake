@@ -83,7 +83,10 @@ if(DEFINED BROWSER AND BROWSER)
     message(STATUS "raylife docs: ${page}.html offline: ${got} of ${expected} formulas typeset, images present")
   endforeach()
 else()
-  message(STATUS "raylife docs: no Chromium, so the pages were not opened offline (./setup.sh --browser installs it)")
+  # (Chromium is looked for when the build is configured: installed after that, it is found at the next configure,
+  # which the docs workflow does.)
+  message(STATUS "raylife docs: no Chromium when the build was configured, so the pages were not opened offline "
+                 "(./setup.sh --browser installs it; then cmake --workflow --preset docs)")
 endif()
 
 if(faults)
