@@ -52,7 +52,7 @@ void checkTiles(const std::string& path, long width, long height, std::uint32_t 
                 double bytesPerPixel)
 {
   if (width <= 0 || height <= 0)
-    return; // (no data window: OpenEXR says so)
+    return; // (an empty data window: checkDataWindow refuses it)
   const double pixelBytes = std::max(bytesPerPixel, double(3 * sizeof(float)));
   const double allowed = std::max(4 * double(width) * double(height) * pixelBytes, double(64 << 20));
   const double rowBytes = double(width) * double(tileHeight) * double(3 * sizeof(float));
@@ -62,6 +62,10 @@ void checkTiles(const std::string& path, long width, long height, std::uint32_t 
                        " pixels are far larger than its " + std::to_string(width) + "x" + std::to_string(height) +
                        " pixels");
 }
+
+// The sides of the data window of a header that gives none: OpenEXR reads a header into a default Imf::Header, whose
+// windows are 64x64 pixels, and keeps them where the file has no window of its own.
+constexpr long kExrDefaultWindow = 64;
 
 // A data window of width x height pixels: refused where empty, or beyond the 2^28 pixels an image may have.
 // (Divided, not multiplied: a product of two sides of up to 2^32 overflows.)
@@ -180,6 +184,8 @@ void checkExrHeaders(const std::string& path)
     if (name.empty()) { // the end of a header; a multi-part file's headers end with an empty one
       if (window)
         checkDataWindow(path, width, height);
+      else // (OpenEXR reads a header into Imf::Header(), whose data window is 64x64 pixels, and keeps it)
+        width = height = kExrDefaultWindow;
       if (tileWidth > 0 || tileHeight > 0)
         checkTiles(path, width, height, tileWidth, tileHeight, bytesPerPixel);
       if (!multiPart || in.peek() == 0)
@@ -256,6 +262,15 @@ Image readExr(const std::string& path)
     const Imath::Box2i window = file.header().dataWindow();
     const long width = long(window.max.x) - window.min.x + 1, height = long(window.max.y) - window.min.y + 1;
     checkDataWindow(path, width, height);
+    // The tiles again, as OpenEXR took them (checkExrHeaders checks those it finds in the bytes), before
+    // setFrameBuffer allocates a row of them.
+    if (file.header().hasTileDescription()) {
+      double bytesPerPixel = 0;
+      for (auto c = file.header().channels().begin(); c != file.header().channels().end(); ++c)
+        bytesPerPixel += c.channel().type == Imf::HALF ? 2 : 4;
+      const Imf::TileDescription& tiles = file.header().tileDescription();
+      checkTiles(path, width, height, tiles.xSize, tiles.ySize, bytesPerPixel);
+    }
     // Before the pixels are allocated: a header that claims 16384x16384 pixels over a table of chunks that are not
     // there cost 3 GiB and 15 s before readPixels found them missing.
     if (!file.isComplete())

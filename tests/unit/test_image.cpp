@@ -232,6 +232,28 @@ TEST_CASE("an EXR whose tiles dwarf its pixels is refused before its buffers are
   std::remove(path.c_str());
 }
 
+TEST_CASE("an EXR without a data window has OpenEXR's 64x64 pixels, and tiles far larger than those are refused")
+{
+  // The float image fuzzer's find: 549 bytes of a tiled file that gives no data window (OpenEXR then keeps its
+  // default, 64x64 pixels) and tiles 4 pixels wide and 33,554,436 tall. The check before OpenEXR took the missing
+  // window for one OpenEXR would refuse and let the tiles by; setFrameBuffer then allocated a row of them for a
+  // channel, 8.6 GB (untouched address space in a release build, past the fuzzer's memory limit under
+  // AddressSanitizer).
+  std::string bytes = regressionExr("exr_no_data_window_tiles_far_taller.exr.bin", 550);
+  const std::string path = writeTemp("no_window.exr", bytes);
+  const std::string reason = "tiles of 4x33554436 pixels are far larger than its 64x64 pixels";
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + ": the EXR's " + reason));
+  // With a compression OpenEXR does not know added to the header, its constructor refuses the file with its own
+  // reason: only the check before OpenEXR gives this one.
+  const std::string last("wrapmodes\0string\0\x0b\0\0\0clamp,clamp", 32);
+  const std::size_t at = bytes.find(last);
+  REQUIRE(at != std::string::npos);
+  bytes.insert(at + last.size(), std::string("compression\0compression\0\x01\0\0\0\xee", 29));
+  writeTemp("no_window.exr", bytes);
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + ": the EXR's " + reason));
+  std::remove(path.c_str());
+}
+
 TEST_CASE("an EXR whose data window is beyond 2^28 pixels is refused before OpenEXR allocates its line buffers")
 {
   // The float image fuzzer's find: 812 bytes of a ZIP-compressed scan-line file whose data window is 5,308,423 x
