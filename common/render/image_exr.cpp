@@ -198,7 +198,9 @@ void checkExrHeaders(const std::string& path)
       return;
     const std::int64_t bytes = std::int32_t(littleEndian32(size));
     const std::int64_t left = std::int64_t(fileSize) - std::int64_t(in.tellg());
-    const std::string what = path + ": the EXR's header attribute '" + printable(name) + "' (" + printable(type) + ")";
+    // (Each name cut short first: a name of 255 control characters would print as 1,530.)
+    const std::string what = path + ": the EXR's header attribute '" + printable(shorten(name)) + "' (" +
+                             printable(shorten(type)) + ")";
     if (bytes < 0 || bytes > left)
       throw ImageIoError(what + " claims " + std::to_string(bytes) + " bytes, and the file has " +
                          std::to_string(left) + " left");
@@ -314,7 +316,7 @@ Image readExr(const std::string& path)
   } catch (const ImageIoError&) {
     throw;
   } catch (const std::exception& e) {
-    throw ImageIoError(path + ": cannot read the EXR: " + printable(e.what()));
+    throw ImageIoError(path + ": cannot read the EXR: " + printable(shorten(e.what(), 600)));
   }
 }
 
