@@ -184,7 +184,7 @@ void checkExrHeaders(const std::string& path)
     if (name.empty()) { // the end of a header; a multi-part file's headers end with an empty one
       if (window)
         checkDataWindow(path, width, height);
-      else // (OpenEXR reads a header into Imf::Header(), whose data window is 64x64 pixels, and keeps it)
+      else
         width = height = kExrDefaultWindow;
       if (tileWidth > 0 || tileHeight > 0)
         checkTiles(path, width, height, tileWidth, tileHeight, bytesPerPixel);

@@ -22,7 +22,7 @@
 //   --embree-robust: Embree's scene built with RTC_SCENE_FLAG_ROBUST, its mode without its default one's shortcuts:
 //   a robust box test, and its Plücker triangle test in place of Möller and Trumbore's, through which a ray can slip
 //   between neighbouring triangles. raylife never takes those shortcuts (its box test is conservative, its triangle
-//   test watertight), so this is the like-for-like yardstick. By default Embree runs its fast mode.
+//   test watertight), so this is the nearest yardstick Embree offers. By default Embree runs its fast mode.
 //   --check: exit 1 if raylife and Embree disagree (hit, or distance) on more than 0.1 % of the rays.
 //   --passes N SET: instead of the timings, N passes of one set of rays through one of the two (raylife's by
 //   default, Embree's for embree-…), then exit: a fixed amount of work for a profiler. The difference between two
