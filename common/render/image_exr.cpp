@@ -10,8 +10,10 @@
 #include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfPartType.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -44,6 +46,22 @@ private:
   std::uint64_t position_ = 0;
 };
 
+// A channel as the pixels' bytes count it: the bytes of a sample (2 for half, 4 for the others), and one sample every
+// xSampling pixels across and every ySampling down.
+struct ExrChannel {
+  int bytes = 4;
+  long xSampling = 1, ySampling = 1;
+};
+
+// The bytes of a pixel of all `channels`, as if each had a sample at every pixel.
+double bytesPerPixel(const std::vector<ExrChannel>& channels)
+{
+  double bytes = 0;
+  for (const ExrChannel& channel : channels)
+    bytes += channel.bytes;
+  return bytes;
+}
+
 // A tiled part is read through buffers its header sizes: whole rows of tiles (OpenEXR's InputFile keeps the data
 // window's width times a tile's height, for each channel read) and whole tiles of every channel. Refused where those
 // are far beyond the image itself: the fuzzer found a 2.8 KB file of 16x8 pixels with tiles 33,554,436 pixels tall.
@@ -61,6 +79,55 @@ void checkTiles(const std::string& path, long width, long height, std::uint32_t 
     throw ImageIoError(path + ": the EXR's tiles of " + std::to_string(tileWidth) + "x" + std::to_string(tileHeight) +
                        " pixels are far larger than its " + std::to_string(width) + "x" + std::to_string(height) +
                        " pixels");
+}
+
+// The most bytes of pixels one byte of an EXR of `compression` can decode to, or 0 where OpenEXR does not know it
+// (its constructor refuses those). Each is the format's own limit, so no file that decodes can pass it:
+//  - RLE: a run of 128 bytes is 2 bytes (64);
+//  - ZIP and ZIPS: zlib's deflate, at most 258 bytes a 2-bit code (1,032);
+//  - PXR24: zlib over floats cut to 3 bytes (1,032 × 4/3);
+//  - PIZ: a Huffman code of at least 1 bit, then 8 bits, for a run of up to 256 16-bit values (453, taken as 512);
+//  - B44 and B44A: 3 bytes for a flat 4x4 block of halves (32 bytes);
+//  - DWAA and DWAB: run lengths then zlib in series (64 × 1,032), doubled, as their layout is intricate.
+// Measured, files of zeros reach 64, 1,022, 1,358, 409, 10.7 and 37,145 (DWAB, floats) respectively.
+double exrMaxExpansion(int compression)
+{
+  switch (Imf::Compression(compression)) {
+  case Imf::NO_COMPRESSION: return 1;
+  case Imf::RLE_COMPRESSION: return 64;
+  case Imf::ZIPS_COMPRESSION:
+  case Imf::ZIP_COMPRESSION: return 1032;
+  case Imf::PXR24_COMPRESSION: return 1376;
+  case Imf::PIZ_COMPRESSION: return 512;
+  case Imf::B44_COMPRESSION:
+  case Imf::B44A_COMPRESSION: return 11;
+  case Imf::DWAA_COMPRESSION:
+  case Imf::DWAB_COMPRESSION: return 2 * 64 * 1032;
+  default: return 0;
+  }
+}
+
+// Refuses a data window of width x height pixels of `channels` that could not come from a file of `fileBytes`, even
+// at its compression's best (exrMaxExpansion): the float image fuzzer found (in CI) a 16x8 ZIP file of 1,688 bytes
+// whose data window was made 7,995,408 pixels wide. OpenEXR 3.1 decoded its one chunk, 1,536 bytes, into a buffer
+// sized for the window and read the rest of the image from memory nothing had written: 20 s, 2.2 GB and an image, in
+// a release build. The pixels are counted as stored: each channel's samples times their bytes.
+void checkPixelsFitFile(const std::string& path, long width, long height, const std::vector<ExrChannel>& channels,
+                        int compression, std::uintmax_t fileBytes)
+{
+  double bytes = 0;
+  for (const ExrChannel& channel : channels) {
+    if (channel.xSampling < 1 || channel.ySampling < 1)
+      return; // (OpenEXR refuses those)
+    bytes += std::floor(double(width) / double(channel.xSampling)) *
+             std::floor(double(height) / double(channel.ySampling)) * channel.bytes;
+  }
+  const double expansion = exrMaxExpansion(compression);
+  if (expansion > 0 && bytes > expansion * double(fileBytes))
+    throw ImageIoError(path + ": the EXR is damaged: its " + std::to_string(width) + "x" + std::to_string(height) +
+                       " pixels are " + std::to_string(std::uintmax_t(bytes)) + " bytes, more than its " +
+                       std::to_string(fileBytes) + " bytes could hold (" + std::to_string(long(expansion)) +
+                       " to 1 at most, with its compression)");
 }
 
 // The sides of the data window of a header that gives none: OpenEXR reads a header into a default Imf::Header, whose
@@ -85,8 +152,8 @@ std::uint32_t littleEndian32(const unsigned char* p)
 // `value`, or only its first bytes where they suffice), or −1 where `value` is too short to say. OpenEXR reads most
 // types by their own layout, not by the size the header gives: a fixed number of bytes for numbers and vectors, a
 // channel list up to its empty name. Strings, types it does not know and the ones not listed here it reads by the size.
-// For a channel list, `bytesPerPixel` is set to its channels' bytes a pixel (2 for half, 4 for the others).
-std::int64_t exrValueBytes(const std::string& type, const std::string& value, double& bytesPerPixel)
+// For a channel list, `channels` is set to its channels.
+std::int64_t exrValueBytes(const std::string& type, const std::string& value, std::vector<ExrChannel>& channels)
 {
   static const std::pair<const char*, int> fixed[] = {
       {"box2i", 16}, {"box2f", 16},  {"chromaticities", 32}, {"compression", 1}, {"deepImageState", 1},
@@ -99,15 +166,16 @@ std::int64_t exrValueBytes(const std::string& type, const std::string& value, do
       return bytes;
   const auto* v = reinterpret_cast<const unsigned char*>(value.data());
   if (type == "chlist") { // names of up to 255 characters, each with its 0 and 16 bytes more, then an empty name
-    bytesPerPixel = 0;
+    channels.clear();
     for (std::size_t i = 0; i < value.size();) {
       const std::size_t end = value.find('\0', i);
       if (end == std::string::npos || end - i > 255)
         return -1;
       if (end == i)
         return std::int64_t(end + 1);
-      if (end + 5 <= value.size()) // the pixel type, the first of the 16 bytes (1: half)
-        bytesPerPixel += littleEndian32(v + end + 1) == 1 ? 2 : 4;
+      if (end + 17 <= value.size()) // the pixel type (1: half), pLinear and 3 reserved bytes, the two samplings
+        channels.push_back({littleEndian32(v + end + 1) == 1 ? 2 : 4, long(std::int32_t(littleEndian32(v + end + 9))),
+                            long(std::int32_t(littleEndian32(v + end + 13)))});
       i = end + 17;
     }
     return -1;
@@ -146,7 +214,10 @@ std::int64_t exrValueBytes(const std::string& type, const std::string& value, do
 //  - tiles far larger than the image (checkTiles), and a data window beyond 2^28 pixels (checkDataWindow).
 //    InputFile's constructor allocates buffers for them: untouched, so only address space, but AddressSanitizer
 //    spent 7 s of a fuzzer's run freeing a row of such tiles, and went past the fuzzer's 10 s limit freeing the line
-//    buffers of a data window 5,308,423 pixels wide.
+//    buffers of a data window 5,308,423 pixels wide;
+//  - pixels more than the file could hold at its compression's best (checkPixelsFitFile). InputFile's constructor
+//    sizes its line buffers by the window: for the fuzzer's 1.7 KB file that claimed 7,995,408 x 8 pixels, 4.6 GB,
+//    which cost AddressSanitizer 6.7 s to allocate and free.
 // A header is attributes (a name and a type name, each ending in a 0, then the value's size, a 32-bit little-endian
 // integer, and the value) ended by a 0; a multi-part file has one header a part, and an empty one after the last.
 // Anything else that is wrong is left to OpenEXR to say.
@@ -173,11 +244,14 @@ void checkExrHeaders(const std::string& path)
     }
     return false;
   };
-  // What the header so far says of its data window, its tiles and its channels' bytes a pixel.
+  // What the header so far says of its data window, its tiles, its channels, its compression (OpenEXR's default is
+  // ZIP) and whether its pixels are deep (samples a pixel that the file sets).
   long width = 0, height = 0;
   bool window = false;
   std::uint32_t tileWidth = 0, tileHeight = 0;
-  double bytesPerPixel = 0;
+  std::vector<ExrChannel> channels;
+  int compression = Imf::ZIP_COMPRESSION;
+  bool deep = (static_cast<unsigned char>(start[5]) & 0x08) != 0; // version flag 0x800, single-part deep data
   for (std::string name, type, value;;) {
     if (!readName(name))
       return;
@@ -187,10 +261,13 @@ void checkExrHeaders(const std::string& path)
       else
         width = height = kExrDefaultWindow;
       if (tileWidth > 0 || tileHeight > 0)
-        checkTiles(path, width, height, tileWidth, tileHeight, bytesPerPixel);
+        checkTiles(path, width, height, tileWidth, tileHeight, bytesPerPixel(channels));
+      if (!deep)
+        checkPixelsFitFile(path, width, height, channels, compression, fileSize);
       if (!multiPart || in.peek() == 0)
         return;
-      width = height = 0, window = false, tileWidth = tileHeight = 0, bytesPerPixel = 0;
+      width = height = 0, window = false, tileWidth = tileHeight = 0, channels.clear();
+      compression = Imf::ZIP_COMPRESSION, deep = false;
       continue;
     }
     unsigned char size[4];
@@ -204,16 +281,16 @@ void checkExrHeaders(const std::string& path)
     if (bytes < 0 || bytes > left)
       throw ImageIoError(what + " claims " + std::to_string(bytes) + " bytes, and the file has " +
                          std::to_string(left) + " left");
-    // The value itself where its layout matters (a string's characters are only skipped).
-    if (type == "string") {
+    // The value itself where its layout matters (a string's characters are only skipped, but for the part's type).
+    if (type == "string" && name != "type") {
       in.seekg(bytes, std::ios::cur);
       continue;
     }
     value.resize(std::size_t(bytes));
     if (!in.read(value.data(), bytes))
       return;
-    double channelBytes = 0;
-    const std::int64_t takes = exrValueBytes(type, value, channelBytes);
+    std::vector<ExrChannel> listed;
+    const std::int64_t takes = exrValueBytes(type, value, listed);
     if (takes != bytes)
       throw ImageIoError(what + " says its value is " + std::to_string(bytes) + " bytes, but " +
                          (takes < 0 ? std::string("its layout does not fit in them")
@@ -225,7 +302,11 @@ void checkExrHeaders(const std::string& path)
     } else if (name == "tiles" && type == "tiledesc") { // width, height, mode
       tileWidth = littleEndian32(v), tileHeight = littleEndian32(v + 4);
     } else if (name == "channels" && type == "chlist") {
-      bytesPerPixel = channelBytes;
+      channels = std::move(listed);
+    } else if (name == "compression" && type == "compression") {
+      compression = v[0];
+    } else if (name == "type" && type == "string") {
+      deep = Imf::isDeepData(value);
     }
   }
 }
@@ -264,15 +345,17 @@ Image readExr(const std::string& path)
     const Imath::Box2i window = file.header().dataWindow();
     const long width = long(window.max.x) - window.min.x + 1, height = long(window.max.y) - window.min.y + 1;
     checkDataWindow(path, width, height);
-    // The tiles again, as OpenEXR took them (checkExrHeaders checks those it finds in the bytes), before
-    // setFrameBuffer allocates a row of them.
+    // The tiles and the pixels' bytes again, as OpenEXR took them (checkExrHeaders checks what it finds in the
+    // bytes), before setFrameBuffer allocates a row of tiles and readPixels reads any.
+    std::vector<ExrChannel> stored;
+    for (auto c = file.header().channels().begin(); c != file.header().channels().end(); ++c)
+      stored.push_back({c.channel().type == Imf::HALF ? 2 : 4, c.channel().xSampling, c.channel().ySampling});
     if (file.header().hasTileDescription()) {
-      double bytesPerPixel = 0;
-      for (auto c = file.header().channels().begin(); c != file.header().channels().end(); ++c)
-        bytesPerPixel += c.channel().type == Imf::HALF ? 2 : 4;
       const Imf::TileDescription& tiles = file.header().tileDescription();
-      checkTiles(path, width, height, tiles.xSize, tiles.ySize, bytesPerPixel);
+      checkTiles(path, width, height, tiles.xSize, tiles.ySize, bytesPerPixel(stored));
     }
+    if (!file.header().hasType() || !Imf::isDeepData(file.header().type()))
+      checkPixelsFitFile(path, width, height, stored, file.header().compression(), std::filesystem::file_size(path));
     // Before the pixels are allocated: a header that claims 16384x16384 pixels over a table of chunks that are not
     // there cost 3 GiB and 15 s before readPixels found them missing.
     if (!file.isComplete())

@@ -193,7 +193,7 @@ TEST_CASE("a short image file that claims 16384 x 16384 texels is refused before
   // Each claims 2^28 texels, raylife's most, 3 GiB as floats, in a few bytes or kilobytes: allocated first, they
   // cost 3 GiB and 13 to 15 s before the reader found the file cut short (found by fuzzing the PNG reader). The
   // EXR whose chunk offsets all name one chunk cost 3 GB and 12 s as late as 2026-12-06: its pixels were zeroed
-  // before they were read; they are now read in strips.
+  // before they were read; they are now read in strips (and a file too small for its pixels is refused first).
   TempDir dir("short");
   std::string png = std::string("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\x40\0\0\0\x40\0", 24);
   png += std::string("\x08\x02\0\0\0\0\0\0\0", 9); // 8-bit RGB; a CRC, and nothing after it
@@ -224,11 +224,15 @@ TEST_CASE("a short image file that claims 16384 x 16384 texels is refused before
     offsets.append(reinterpret_cast<const char*>(&shared), 8);
   const std::string exrShared = exr.substr(0, at + 1) + offsets + exr.substr(firstChunk, secondChunk - firstChunk);
   exr = exr.substr(0, at + 1) + std::string(16384 * 8, '\0');
+  // Each EXR padded at its end to 3.2 MB, what its 3 GiB of pixels need at ZIP's best (1,032 to 1), so that the
+  // checks after that one are what refuse it; unpadded, that one refuses it first.
+  const auto padded = [](const std::string& bytes) { return bytes + std::string(3'200'000 - bytes.size(), '\0'); };
   const std::string pfm = std::string("PF\n16384 16384\n-1.0\n") + std::string(64, '\0');
   const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
       {"short.png", png, "its header claims 16384x16384 texels, more than a file of 33 bytes can hold"},
-      {"short.exr", exr, "the EXR is incomplete"},
-      {"shared.exr", exrShared, "cannot read the EXR"},
+      {"short.exr", padded(exr), "the EXR is incomplete"},
+      {"shared.exr", padded(exrShared), "cannot read the EXR"},
+      {"unpadded.exr", exrShared, "the EXR is damaged: its 16384x16384 pixels are 3221225472 bytes, more than"},
       {"short.pfm", pfm, "the PFM file is truncated (16384x16384 pixels need 3221225472 bytes"},
   };
   for (const auto& [name, bytes, fault] : cases) {

@@ -4,6 +4,14 @@
 
 #include <catch2/catch.hpp>
 
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfDeepFrameBuffer.h>
+#include <OpenEXR/ImfDeepScanLineOutputFile.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfPartType.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -195,6 +203,17 @@ std::string regressionExr(const std::string& name, std::size_t size)
   return bytes.substr(1);
 }
 
+// Reads the EXR at `path`, checks that it is width x height pixels of zeros, and removes it.
+void readsAsZeros(const std::string& path, int width, int height)
+{
+  Image image;
+  REQUIRE_NOTHROW(image = readExr(path));
+  CHECK(image.width == width);
+  CHECK(image.height == height);
+  CHECK(std::all_of(image.pixels.begin(), image.pixels.end(), [](float v) { return v == 0; }));
+  std::remove(path.c_str());
+}
+
 // Writes `bytes` to the temporary file `name` and returns its path.
 std::string writeTemp(const std::string& name, const std::string& bytes)
 {
@@ -271,6 +290,90 @@ TEST_CASE("an EXR whose data window is beyond 2^28 pixels is refused before Open
   writeTemp("window.exr", bytes);
   CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + ": bad EXR data window (5308423x1025)"));
   std::remove(path.c_str());
+}
+
+TEST_CASE("an EXR whose pixels are more bytes than the file could hold is refused before OpenEXR reads it")
+{
+  // The float image fuzzer's find (in CI): a 16x8 ZIP file of 1,688 bytes, one byte of its data window changed, so
+  // that it claims 7,995,408x8 pixels of three floats. OpenEXR decoded the short chunk and read the rest of the
+  // image from memory it had not written: 20 s, 2.2 GB and an image, in a release build. zlib gives at most 1,032
+  // bytes a byte.
+  std::string bytes = regressionExr("exr_data_window_far_wider_than_its_bytes.exr.bin", 1689);
+  const std::string path = writeTemp("wide.exr", bytes);
+  const std::string reason = ": the EXR is damaged: its 7995408x8 pixels are 767559168 bytes, more than its 1688 bytes "
+                             "could hold (1032 to 1 at most, with its compression)";
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + reason));
+  // With a line order OpenEXR does not know, its constructor would refuse the file with its own reason: only the
+  // check before OpenEXR, which spares InputFile's 4.6 GB of line buffers, gives this one.
+  const std::string key("lineOrder\0lineOrder\0\x01\0\0\0", 24);
+  const std::size_t at = bytes.find(key);
+  REQUIRE(at != std::string::npos);
+  bytes[at + key.size()] = char(0xee);
+  writeTemp("wide.exr", bytes);
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + reason));
+  std::remove(path.c_str());
+}
+
+TEST_CASE("EXRs of zeros, each compression at its best, read back: the bytes-a-byte limits refuse no real file")
+{
+  // A wide strip of zeros compresses about as far as each compression goes (ZIP 1,003 to 1 here, against the 1,032
+  // allowed; RLE 63 against 64; PIZ 406 against 512; DWAB's floats 31,700 against 132,096); subsampled chroma
+  // channels (a sample every 2x2 pixels) count a quarter.
+  const int width = 4096, height = 256;
+  for (const Imf::PixelType type : {Imf::HALF, Imf::FLOAT})
+    for (int compression = 0; compression < Imf::NUM_COMPRESSION_METHODS; ++compression) {
+      Imf::Header header(width, height);
+      header.compression() = Imf::Compression(compression);
+      for (const char* name : {"R", "G", "B", "A"})
+        header.channels().insert(name, Imf::Channel(type));
+      header.channels().insert("BY", Imf::Channel(type, 2, 2));
+      const std::size_t bytes = type == Imf::HALF ? 2 : 4;
+      std::vector<char> zeros(std::size_t(width) * height * bytes, 0);
+      Imf::FrameBuffer frame;
+      for (const char* name : {"R", "G", "B", "A"})
+        frame.insert(name, Imf::Slice(type, zeros.data(), bytes, bytes * width));
+      frame.insert("BY", Imf::Slice(type, zeros.data(), bytes, bytes * width, 2, 2));
+      const std::string path = tempPath("zeros.exr");
+      {
+        Imf::OutputFile file(path.c_str(), header);
+        file.setFrameBuffer(frame);
+        file.writePixels(height);
+      }
+      INFO("compression " << compression << ", " << (type == Imf::HALF ? "half" : "float") << ": "
+                          << double(width) * height * double(bytes) * 4.25 / double(std::filesystem::file_size(path))
+                          << " bytes a byte");
+      readsAsZeros(path, width, height);
+    }
+}
+
+TEST_CASE("a deep EXR of empty pixels reads as zeros: its channels' bytes are not counted against its size")
+{
+  // A deep file sets the samples of each pixel; with none, its 16384x64 pixels of five float channels (21 MB, were
+  // each pixel one sample) take a few KB, the sample counts' table zlib-compressed line by line. OpenEXR's InputFile
+  // composites deep pixels that have an alpha channel into a flat image.
+  const int width = 16384, height = 64;
+  Imf::Header header(width, height);
+  header.compression() = Imf::ZIPS_COMPRESSION; // (deep files allow none, RLE and ZIPS)
+  header.setType(Imf::DEEPSCANLINE);
+  const char* names[] = {"R", "G", "B", "A", "Z"};
+  for (const char* name : names)
+    header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+  std::vector<unsigned> counts(std::size_t(width) * height, 0);
+  std::vector<float*> samples(counts.size(), nullptr);
+  Imf::DeepFrameBuffer frame;
+  frame.insertSampleCountSlice(
+      Imf::Slice(Imf::UINT, reinterpret_cast<char*>(counts.data()), sizeof(unsigned), sizeof(unsigned) * width));
+  for (const char* name : names)
+    frame.insert(name, Imf::DeepSlice(Imf::FLOAT, reinterpret_cast<char*>(samples.data()), sizeof(float*),
+                                      sizeof(float*) * width, sizeof(float)));
+  const std::string path = tempPath("deep.exr");
+  {
+    Imf::DeepScanLineOutputFile file(path.c_str(), header);
+    file.setFrameBuffer(frame);
+    file.writePixels(height);
+  }
+  REQUIRE(20.0 * width * height > 1032.0 * double(std::filesystem::file_size(path))); // beyond what ZIP allows
+  readsAsZeros(path, width, height);
 }
 
 TEST_CASE("an EXR whose header attribute claims more bytes than the file holds is refused before OpenEXR reads it")
