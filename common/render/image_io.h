@@ -55,7 +55,8 @@ Image readPfm(const std::string& path);
 /// @throws ImageIoError naming the file and the fault.
 Image readPng(const std::string& path);
 /// Reads an OpenEXR file's R, G and B channels (or its Y channel, as grey; any pixel type, converted to float;
-/// a missing one of R, G, B reads as 0) over its data window, row 0 at the top. @throws ImageIoError.
+/// a missing one of R, G, B reads as 0) over its data window, row 0 at the top. Of a multi-part file, the first part.
+/// @throws ImageIoError, also for deep pixels (any part) and for pixels more bytes than the file could hold.
 Image readExr(const std::string& path);
 /// Reads a PNG, PFM or EXR file, chosen by its extension. @throws ImageIoError.
 Image readImage(const std::string& path);
