@@ -89,7 +89,7 @@ void checkTiles(const std::string& path, long width, long height, std::uint32_t 
 //  - PIZ: a Huffman code of at least 1 bit, then 8 bits, for a run of up to 256 16-bit values (453, taken as 512);
 //  - B44 and B44A: 3 bytes for a flat 4x4 block of halves (32 bytes);
 //  - DWAA and DWAB: run lengths then zlib in series (64 × 1,032), doubled, as their layout is intricate.
-// Measured, files of zeros reach 64, 1,022, 1,358, 409, 10.7 and 37,145 (DWAB, floats) respectively.
+// Measured, files of zeros reach 63.7, 1,022, 1,358, 409, 10.7 and 37,145 (DWAB, floats) respectively.
 double exrMaxExpansion(int compression)
 {
   switch (Imf::Compression(compression)) {
@@ -126,8 +126,8 @@ void checkPixelsFitFile(const std::string& path, long width, long height, const 
   if (expansion > 0 && bytes > expansion * double(fileBytes))
     throw ImageIoError(path + ": the EXR is damaged: its " + std::to_string(width) + "x" + std::to_string(height) +
                        " pixels are " + std::to_string(std::uintmax_t(bytes)) + " bytes, more than its " +
-                       std::to_string(fileBytes) + " bytes could hold (" +
-                       std::to_string(long(expansion)) + " to 1 at most, with its compression)");
+                       std::to_string(fileBytes) + " bytes could hold (" + std::to_string(long(expansion)) +
+                       " to 1 at most, with its compression)");
 }
 
 // Refuses a part of deep pixels (each pixel holds as many samples, at their depths, as the file says): not an image
