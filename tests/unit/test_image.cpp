@@ -200,16 +200,6 @@ std::string regressionExr(const std::string& name, std::size_t size)
   return bytes.substr(1);
 }
 
-// Gives the EXR `bytes` (a header with a lineOrder attribute) a line order OpenEXR does not know, so that its
-// constructor refuses the file with its own reason: what gives another was checked before OpenEXR read it.
-void withUnknownLineOrder(std::string& bytes)
-{
-  const std::string key("lineOrder\0lineOrder\0\x01\0\0\0", 24);
-  const std::size_t at = bytes.find(key);
-  REQUIRE(at != std::string::npos);
-  bytes[at + key.size()] = char(0xee);
-}
-
 // Reads the EXR at `path`, checks that it is width x height pixels of zeros, and removes it.
 void readsAsZeros(const std::string& path, int width, int height)
 {
@@ -227,6 +217,22 @@ std::string writeTemp(const std::string& name, const std::string& bytes)
   const std::string path = tempPath(name);
   std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
   return path;
+}
+
+// Writes the EXR `bytes` (a header with a lineOrder attribute) to the temporary file `name` and checks that readExr
+// refuses it with `reason` after its path; then again with a line order OpenEXR does not know. OpenEXR's constructor
+// would refuse that file with its own reason, so only a check made before OpenEXR reads the file gives `reason`.
+void refusedBeforeOpenExr(const std::string& name, std::string bytes, const std::string& reason)
+{
+  const std::string path = writeTemp(name, bytes);
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + reason));
+  const std::string key("lineOrder\0lineOrder\0\x01\0\0\0", 24);
+  const std::size_t at = bytes.find(key);
+  REQUIRE(at != std::string::npos);
+  bytes[at + key.size()] = char(0xee);
+  writeTemp(name, bytes);
+  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + reason));
+  std::remove(path.c_str());
 }
 } // namespace
 
@@ -305,17 +311,10 @@ TEST_CASE("an EXR whose pixels are more bytes than the file could hold is refuse
   // that it claims 7,995,408x8 pixels of three floats. OpenEXR decoded the short chunk and read the rest of the
   // image from memory it had not written: 20 s, 2.2 GB and an image, in a release build. zlib gives at most 1,032
   // bytes a byte.
-  std::string bytes = regressionExr("exr_data_window_far_wider_than_its_bytes.exr.bin", 1689);
-  const std::string path = writeTemp("wide.exr", bytes);
-  const std::string reason = ": the EXR is damaged: its 7995408x8 pixels are 767559168 bytes, more than its 1688 bytes "
-                             "could hold (1032 to 1 at most, with its compression)";
-  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + reason));
-  // With a line order OpenEXR does not know, its constructor would refuse the file with its own reason: only the
-  // check before OpenEXR, which spares InputFile's 4.6 GB of line buffers, gives this one.
-  withUnknownLineOrder(bytes);
-  writeTemp("wide.exr", bytes);
-  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + reason));
-  std::remove(path.c_str());
+  // The check runs before OpenEXR's constructor, which would take 4.6 GB of line buffers for this window.
+  refusedBeforeOpenExr("wide.exr", regressionExr("exr_data_window_far_wider_than_its_bytes.exr.bin", 1689),
+                       ": the EXR is damaged: its 7995408x8 pixels are 767559168 bytes, more than its 1688 bytes "
+                       "could hold (1032 to 1 at most, with its compression)");
 }
 
 TEST_CASE("EXRs of zeros, each compression at its best, read back: the bytes-a-byte limits refuse no real file")
@@ -356,17 +355,9 @@ TEST_CASE("a deep EXR is refused in one line before OpenEXR reads it, whatever i
   // and the same with its data window made 33,554,432 pixels wide: read, that took 147 s and 18 GB (OpenEXR
   // composites deep pixels into flat ones), and the fuzzer found OpenEXR 3.1's deep reader leaking within a second.
   const std::string reason = ": the EXR holds deep pixels (samples at many depths), which raylife does not read";
-  const std::string path = writeTemp("deep.exr", regressionExr("deep_scanline.exr.bin", 805));
-  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + reason));
-  std::string bytes = regressionExr("exr_deep_data_window_far_wider_than_its_bytes.exr.bin", 805);
-  writeTemp("deep.exr", bytes);
-  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + reason));
-  // With a line order OpenEXR does not know, its constructor would refuse the file with its own reason: only the
-  // check before OpenEXR gives this one.
-  withUnknownLineOrder(bytes);
-  writeTemp("deep.exr", bytes);
-  CHECK_THROWS_WITH(readExr(path), Catch::Contains(path + reason));
-  std::remove(path.c_str());
+  refusedBeforeOpenExr("deep.exr", regressionExr("deep_scanline.exr.bin", 805), reason);
+  refusedBeforeOpenExr("deep.exr", regressionExr("exr_deep_data_window_far_wider_than_its_bytes.exr.bin", 805),
+                       reason);
 }
 
 TEST_CASE("an EXR whose header attribute claims more bytes than the file holds is refused before OpenEXR reads it")
