@@ -1050,6 +1050,9 @@ struct SceneMedia {
 constexpr int kMaxDensityCells = 512;
 constexpr int kMajorantCells = 32;
 constexpr int kMaxMajorantCells = 256;
+/// Most tentative collisions (mean free paths at the largest density) a ray across a density grid's box may meet:
+/// delta tracking steps once per mean free path, so about this many steps a crossing at worst.
+constexpr double kMaxMajorantThickness = 1e9;
 
 // A medium's "density": {"file": "cloud.json", "majorant": "grid" | "global", "majorant_cells": 16}. The file (relative to the scene's
 // folder) is JSON: {"resolution": [nx, ny, nz], "bounds": [[x0, y0, z0], [x1, y1, z1]], "density": [nx·ny·nz
@@ -1125,6 +1128,29 @@ void readDensity(const Reader& r, const Json& j, const Path& path, const std::st
     grid->values[i] = values[i].get<float>();
   }
   grid->buildMajorants(majorantCells);
+  // Delta and ratio tracking take a step per mean free path at the majorant, so a ray across the box at its densest
+  // takes about (its optical thickness there) steps: bounded here, with the rate itself, so that every tracking loop
+  // ends in that many steps and its sums stay finite (a rate that overflowed had stalled them for ever).
+  const Color sigmaT = m.sigmaT();
+  const Real sMax = std::max({sigmaT.r, sigmaT.g, sigmaT.b});
+  const Real rate = sMax * grid->globalMajorant;
+  const double diagonal = glm::length(glm::dvec3(grid->hi) - glm::dvec3(grid->lo));
+  const double thickness = double(sMax) * double(grid->globalMajorant) * diagonal;
+  auto g3 = [](double v) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.3g", v);
+    return std::string(text);
+  };
+  if (!std::isfinite(Real(3) * rate))
+    r.fail(path, "sigma_t (" + g3(double(sMax)) + ", the largest channel of sigma_a + sigma_s) times the largest "
+                 "density (" + g3(double(grid->globalMajorant)) + ") is beyond the range of the renderer's numbers; "
+                 "lower sigma_a, sigma_s or the densities");
+  if (!(thickness <= kMaxMajorantThickness))
+    r.fail(path, "a ray across the density box at its densest would meet " + g3(thickness) +
+                     " tentative collisions (sigma_t " + g3(double(sMax)) + " x density " +
+                     g3(double(grid->globalMajorant)) + " x the box's diagonal " + g3(diagonal) +
+                     "), and delta tracking takes a step for each: at most " + g3(kMaxMajorantThickness) +
+                     " are allowed; lower sigma_a, sigma_s or the densities");
   m.density = std::move(grid);
 }
 

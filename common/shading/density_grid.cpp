@@ -148,6 +148,20 @@ std::vector<MajorantSegment> majorantSegments(const DensityGrid& grid, bool glob
   return out;
 }
 
+namespace {
+
+// The next tentative collision, `step` beyond t: at least the next number after t (towards `end`). A step smaller
+// than half of t's spacing (a rate above about 1/ulp(t)) would leave t where it is, and at a point of zero density
+// null collisions would then repeat there for ever; so each moves on, and a segment takes at most about
+// rate × its length steps, or its length in ulps, whichever is fewer.
+Real stepFrom(Real t, Real step, Real end)
+{
+  const Real next = t + step;
+  return next > t ? next : std::nextafter(t, end);
+}
+
+} // namespace
+
 TrackedFlight deltaTrack(const DensityGrid& grid, bool globalMajorant, const Color& sigmaA, const Color& sigmaS,
                          const Ray& ray, Real tMax, Sampler& sampler)
 {
@@ -168,7 +182,7 @@ TrackedFlight deltaTrack(const DensityGrid& grid, bool globalMajorant, const Col
         target -= rate * (s.t1 - t);
         break;
       }
-      t += target / rate;
+      t = stepFrom(t, target / rate, s.t1);
       const Real d = grid.density(ray.at(t));
       const Color st = d * sigmaT;
       const Real mean = (st.r + st.g + st.b) / 3;
@@ -195,7 +209,7 @@ Color ratioTrack(const DensityGrid& grid, bool globalMajorant, const Color& sigm
     if (!(rate > 0))
       continue;
     for (Real t = s.t0 - std::log1p(-sampler.next1D()) / rate; t < s.t1;
-         t -= std::log1p(-sampler.next1D()) / rate) {
+         t = stepFrom(t, -std::log1p(-sampler.next1D()) / rate, s.t1)) {
       tr *= glm::max(Color(1) - grid.density(ray.at(t)) * sigmaT / rate, Color(0));
       if (tr == Color(0))
         return tr;

@@ -87,7 +87,9 @@ struct TrackedFlight {
 /// collisions at rate σ̄ = max channel of σt × the segment's majorant density; at each, a real collision with
 /// probability P = mean(σt(x))/σ̄, weighted σs(x)/mean(σt(x)) (absorption is in the weight), else a null
 /// collision weighted (σ̄ − σt(x))/(σ̄ − mean(σt(x))) per channel. Unbiased for every channel of a coloured medium
-/// (with a grey one the weights are the albedo and 1: classic delta tracking).
+/// (with a grey one the weights are the albedo and 1: classic delta tracking). Each tentative collision moves t on by
+/// at least one representable number, so a segment takes at most about σ̄ × its length steps, or its length in
+/// ulps of t if fewer. Contract: 3·σ̄ is finite (the scene loader also bounds σ̄ × the box's diagonal by 1e9).
 TrackedFlight deltaTrack(const DensityGrid& grid, bool globalMajorant, const Color& sigmaA, const Color& sigmaS,
                          const Ray& ray, Real tMax, Sampler& sampler);
 

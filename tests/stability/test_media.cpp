@@ -9,11 +9,21 @@
 // Naive, for contrast: the passing weight written as e^{−σt,i d} / (⅓ Σ e^{−σt,j d}) directly is 0/0 = NaN as soon
 // as every channel underflows: in float past an optical depth of about 104 in the thinnest channel, in double
 // past about 745.
+// Also, in the build's own precision: delta and ratio tracking (density_grid.h) through a density grid seen from so
+// far away that the majorant's mean free path is below the spacing of t's numbers there. Pass criterion: both end,
+// with the exact answer where the density is 0 (no collision, weight and transmittance 1) and finite weights where
+// it is not. Before each step was made to move t on, a step below half an ulp left t where it was, and at a point
+// of zero density the null collisions repeated there for ever.
+#include "shading/density_grid.h"
 #include "shading/medium.h"
 #include "geometry/sphere.h"
 #include "support.h"
 
 #include <catch2/catch.hpp>
+
+#include <chrono>
+#include <future>
+#include <thread>
 
 using namespace raylife;
 using namespace raylife::stability;
@@ -94,4 +104,55 @@ TEMPLATE_TEST_CASE("stability 13: chords of rays that graze a ball give a transm
   std::printf("[stability] %s media: %zu of 100000 grazing rays met the ball, every chord's transmittance in [0, 1]\n",
               scalarName<T>(), hits);
   CHECK(hits > 0);
+}
+
+TEST_CASE("stability 13: delta and ratio tracking end where a step is below the spacing of t's numbers",
+          "[stability][media]")
+{
+  // Two cells along x, densities 0 and 1, in the unit box: below x = 0.25 the density is 0, beyond 0.75 it is 1.
+  DensityGrid grid;
+  grid.nx = 2;
+  grid.lo = Vec3(0), grid.hi = Vec3(1);
+  grid.values = {0.0f, 1.0f};
+  grid.buildMajorants(32);
+  // The box seen from D away along −z, with t's spacing there about 1e-4: 1e4 numbers across it. A rate of 1e9 makes
+  // the mean step 1e-9, far below that spacing.
+  const Real D = Real(1) / (std::numeric_limits<Real>::epsilon() * Real(1e4));
+  const Color sigmaS(Real(1e9)), sigmaA(0);
+  struct Outcome {
+    TrackedFlight flight;
+    Color transmittance;
+  };
+  for (const bool global : {true, false})
+    for (const Real x : {Real(0.1), Real(0.23), Real(0.9)}) {
+      const Ray ray{Vec3(x, Real(0.5), D), Vec3(0, 0, -1)};
+      const Real tMax = D + 1;
+      // Each in a thread of its own (with copies of what it reads), given a minute for what takes milliseconds: a
+      // loop that does not end must fail the test rather than hold it (the thread is left behind, and ends with the
+      // process).
+      std::promise<Outcome> promise;
+      std::future<Outcome> answer = promise.get_future();
+      std::thread([grid, ray, global, tMax, sigmaA, sigmaS, p = std::move(promise)]() mutable {
+        Sampler sampler(13, 0, 0, 0);
+        const TrackedFlight f = deltaTrack(grid, global, sigmaA, sigmaS, ray, tMax, sampler);
+        const Color tr = ratioTrack(grid, global, sigmaA + sigmaS, ray, tMax, sampler);
+        p.set_value(Outcome{f, tr});
+      }).detach();
+      INFO("global majorant " << global << ", x " << x << ", D " << D);
+      REQUIRE(answer.wait_for(std::chrono::minutes(1)) == std::future_status::ready);
+      const Outcome o = answer.get();
+      CHECK(std::isfinite(o.flight.weight.r));
+      CHECK(std::isfinite(o.flight.t));
+      CHECK(o.transmittance.r >= 0);
+      CHECK(o.transmittance.r <= 1);
+      if (x < Real(0.25)) { // no density on the whole chord: exactly nothing to meet
+        CHECK_FALSE(o.flight.scattered);
+        CHECK(o.flight.weight == Color(1));
+        CHECK(o.transmittance == Color(1));
+      } else if (x > Real(0.75)) { // density 1 at the majorant: the first tentative collision is real
+        CHECK(o.flight.scattered);
+        CHECK(o.flight.weight == Color(1));
+        CHECK(o.transmittance == Color(0));
+      }
+    }
 }

@@ -261,8 +261,8 @@ TEST_CASE("scene keys: a density file's faults are refused, naming the file and 
   write("negative.json", R"({"resolution": [1, 1, 2], "bounds": [[0, 0, 0], [1, 1, 1]], "density": [1, -2]})");
   write("flat.json", R"({"resolution": [1, 1, 1], "bounds": [[0, 0, 0], [1, 0, 1]], "density": [1]})");
   write("good.json", R"({"resolution": [1, 1, 2], "bounds": [[0, 0, 0], [1, 1, 1]], "density": [1, 3]})");
-  auto scene = [&](const std::string& density) {
-    return "{" + kCamera + R"(, "media": {"smoke": {"sigma_s": 1, "density": )" + density + R"(}},
+  auto scene = [&](const std::string& density, const std::string& sigmaS = "1") {
+    return "{" + kCamera + R"(, "media": {"smoke": {"sigma_s": )" + sigmaS + R"(, "density": )" + density + R"(}},
       "materials": {"b": {"type": "interface"}}, "spheres": [{"center": [0, 0, 0], "radius": 1, "material": "b", "interior": "smoke"}]})";
   };
   const std::string sceneName = (dir / "scene.json").string();
@@ -289,6 +289,22 @@ TEST_CASE("scene keys: a density file's faults are refused, naming the file and 
   // The majorant grid's resolution: cells along the box's longest side (here z), fewer along the others.
   CHECK(error(scene(R"({"file": "good.json", "majorant_cells": 0})")).find("/media/smoke/density/majorant_cells: must be at least 1") != std::string::npos);
   CHECK(error(scene(R"({"file": "good.json", "majorant_cells": 2.5})")).find("/media/smoke/density/majorant_cells") != std::string::npos);
+  // A ray across the box at its densest meets sigma_t x 3 x sqrt(3) tentative collisions, each a step of delta
+  // tracking: at most 1e9. Just below, and just above:
+  CHECK(parseScene(scene(R"({"file": "good.json"})", "1.9e8"), sceneName).media[0].density);
+  const std::string thick = error(scene(R"({"file": "good.json"})", "2e8"));
+  CHECK(thick.find("/media/smoke/density: a ray across the density box at its densest would meet 1.04e+09 tentative "
+                   "collisions (sigma_t 2e+08 x density 3 x the box's diagonal 1.73)") != std::string::npos);
+  // A rate at the edge of the numbers' range, over a box so small that a ray across it meets only 1.7e8 collisions:
+  // tracking sums three channels' rates, which would overflow (in the double build; the float build refuses 1e308
+  // as it reads it).
+  if (sizeof(Real) == 8) {
+    write("tiny.json",
+          R"({"resolution": [1, 1, 2], "bounds": [[0, 0, 0], [1e-300, 1e-300, 1e-300]], "density": [1, 1]})");
+    CHECK(error(scene(R"({"file": "tiny.json"})", "1e308"))
+              .find("/media/smoke/density: sigma_t (1e+308, the largest channel of sigma_a + sigma_s) times the "
+                    "largest density (1) is beyond the range of the renderer's numbers") != std::string::npos);
+  }
   const Scene fine = parseScene(scene(R"({"file": "good.json", "majorant_cells": 4})"), sceneName);
   CHECK(fine.media[0].density->mz == 4);
   CHECK(fine.media[0].density->mx == 4); // the box is a cube
