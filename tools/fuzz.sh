@@ -6,7 +6,8 @@
 # Builds tests/fuzz/fuzz_scene, fuzz_mesh, fuzz_image, fuzz_float_image and fuzz_film in BUILD_DIR (default
 # build-asan/) configured by the asan preset: clang, -fsanitize=fuzzer-no-link,address,undefined, the same build in
 # which `cmake --workflow --preset asan` runs the suite, so CI builds the sanitized code once for both. The scene
-# fuzzer is seeded from scenes/, scenes/stress/ and tests/fuzz/regressions/, the mesh fuzzer from
+# fuzzer is seeded from scenes/, scenes/stress/ and tests/fuzz/regressions/ (an input may carry a medium's density
+# file after a line "#density", and the check tracks rays through it: tests/fuzz/scene_check.h), the mesh fuzzer from
 # tests/fuzz/mesh_regressions/ (and Assimp's test models, where Debian's assimp-testmodels is installed), the image
 # and film fuzzers from their own regressions folders (and Assimp's PNG and JPEG files); each keeps its growing
 # corpus in BUILD_DIR/corpus*/ between runs, and leaves any crashing or hanging input in BUILD_DIR/crashes/.

@@ -1,6 +1,7 @@
 #include "scene_check.h"
 
 #include "scene/scene.h"
+#include "shading/density_grid.h"
 
 #include <cmath>
 #include <filesystem>
@@ -207,13 +208,84 @@ std::string checkFloatImageBytes(std::string_view bytes, const std::string& exte
   return checkTexels(image);
 }
 
+namespace {
+
+// The promises of a medium the loader accepts: coefficients finite and ≥ 0, |g| < 1; and of its density grid, if
+// it has one: its size, box and values as the format allows, its majorants at least every value, and a crossing of
+// its box at the majorant of at most 1e9 tentative collisions, with finite sums of three rates. Where a crossing
+// is cheap (10^4 collisions at most), delta and ratio tracking then run along rays through the box, from outside,
+// from inside and from far away (where t's numbers are coarse): each must end, with finite weights ≥ 0 and a
+// transmittance in [0, 1].
+std::string checkMedium(const Medium& m)
+{
+  if (!nonNegative(m.sigmaA) || !nonNegative(m.sigmaS) || !(m.g > -1 && m.g < 1))
+    return "medium '" + m.name + "' has a value out of range";
+  if (!m.density)
+    return "";
+  const DensityGrid& grid = *m.density;
+  const std::size_t cells = std::size_t(grid.nx) * std::size_t(grid.ny) * std::size_t(grid.nz);
+  if (grid.nx < 1 || grid.ny < 1 || grid.nz < 1 || grid.nx > 512 || grid.ny > 512 || grid.nz > 512 ||
+      grid.values.size() != cells)
+    return "a density grid of the wrong size was accepted";
+  if (!withinSceneExtent(grid.lo) || !withinSceneExtent(grid.hi) || !(grid.lo.x < grid.hi.x) ||
+      !(grid.lo.y < grid.hi.y) || !(grid.lo.z < grid.hi.z))
+    return "a density grid with a bad box was accepted";
+  if (grid.majorants.size() != std::size_t(grid.mx) * std::size_t(grid.my) * std::size_t(grid.mz))
+    return "a density grid's majorants do not match their size";
+  for (const float v : grid.values)
+    if (!std::isfinite(v) || v < 0 || !(Real(v) <= grid.globalMajorant))
+      return "a density that is negative, not finite or above the global majorant was accepted";
+  const Color sigmaT = m.sigmaT();
+  const Real sMax = std::max({sigmaT.r, sigmaT.g, sigmaT.b});
+  const double thickness =
+      double(sMax) * double(grid.globalMajorant) * glm::length(glm::dvec3(grid.hi) - glm::dvec3(grid.lo));
+  if (!std::isfinite(Real(3) * sMax * grid.globalMajorant) || !(thickness <= 1e9))
+    return "a density medium that takes more than 1e9 steps to cross was accepted";
+  if (!(thickness <= 1e4))
+    return "";
+  const Vec3 centre = grid.lo + (grid.hi - grid.lo) * Real(0.5), size = grid.hi - grid.lo;
+  const Vec3 far = centre + size * Real(1e15); // (there t's numbers are a seventh of the box's diagonal apart)
+  const Ray rays[] = {
+      {grid.lo - size, safeNormalize(size, Vec3(1, 0, 0))},
+      {Vec3(grid.lo.x - size.x, centre.y, centre.z), Vec3(1, 0, 0)},
+      {Vec3(centre.x, grid.hi.y + size.y, centre.z), Vec3(0, -1, 0)},
+      {centre, safeNormalize(Vec3(1, 2, -3), Vec3(0, 0, 1))},
+      {far, safeNormalize(centre - far, Vec3(0, 0, -1))},
+  };
+  Sampler sampler(1, 0, 0, 0);
+  for (const bool global : {false, true})
+    for (const Ray& ray : rays) {
+      if (!finite(ray.origin) || !finite(ray.direction))
+        continue;
+      const TrackedFlight f = deltaTrack(grid, global, m.sigmaA, m.sigmaS, ray, kInfinity, sampler);
+      if (!nonNegative(f.weight) || !(f.t >= 0) || (f.scattered && !std::isfinite(f.t)))
+        return "delta tracking through medium '" + m.name + "' gave a bad weight or distance";
+      const Color tr = ratioTrack(grid, global, sigmaT, ray, kInfinity, sampler);
+      if (!nonNegative(tr) || tr.r > 1 || tr.g > 1 || tr.b > 1)
+        return "ratio tracking through medium '" + m.name + "' gave a transmittance outside [0, 1]";
+    }
+  return "";
+}
+
+} // namespace
+
 std::string checkSceneText(std::string_view text)
 {
+  // "SCENE\n#density\nGRID": the grid is the file "density.json" beside the scene, which the scene may name; without
+  // the marker there is no such file.
+  constexpr std::string_view marker = "\n#density\n";
+  const std::size_t split = text.find(marker);
+  const std::string densityFile =
+      writeInput(split == std::string_view::npos ? std::string_view() : text.substr(split + marker.size()),
+                 "density.json");
+  if (split == std::string_view::npos)
+    std::filesystem::remove(densityFile);
+  const std::string sceneFile = (std::filesystem::path(densityFile).parent_path() / "fuzz.json").string();
   Scene scene;
   try {
-    scene = parseScene(text, "fuzz.json");
+    scene = parseScene(text.substr(0, split), sceneFile);
   } catch (const SceneError& e) {
-    return checkMessage(e.what(), "fuzz.json:");
+    return checkMessage(e.what(), sceneFile + ":");
   }
   if (scene.spheres.empty() && scene.triangles.empty())
     return "a scene without spheres or triangles was accepted";
@@ -251,6 +323,9 @@ std::string checkSceneText(std::string_view text)
       std::abs(glm::length(c.basis.w) - 1) > tolerance || std::abs(glm::dot(c.basis.u, c.basis.v)) > tolerance ||
       std::abs(glm::dot(c.basis.v, c.basis.w)) > tolerance || std::abs(glm::dot(c.basis.u, c.basis.w)) > tolerance)
     return "a camera basis that is not orthonormal was accepted";
+  for (const Medium& m : scene.media)
+    if (std::string problem = checkMedium(m); !problem.empty())
+      return problem;
   return "";
 }
 
