@@ -43,18 +43,20 @@ struct Strategies {
   int s = -1, t = -1;      // −1: every strategy
   bool unweighted = false; // weight 1 instead of the MIS weight
   // The weight an estimate of strategy (s, t) enters the image with, given its MIS weight.
-  Real weight(int ss, int tt, Real mis) const
+  Real weight(int ss, int tt, double mis) const
   {
     if (s >= 0 && (ss != s || tt != t))
       return 0;
-    return unweighted ? 1 : mis;
+    return unweighted ? 1 : Real(mis);
   }
 };
 /// [options]
 
 /// [mis]
-// The power heuristic's exponent applied to a ratio of pdfs: every weight below is 1 / Σ of these.
-Real mis(Real ratio) { return ratio * ratio; }
+// The power heuristic's exponent applied to a ratio of pdfs: every weight below is 1 / Σ of these. They square
+// lengths and densities, so they are reckoned in double even in the float build (where a length of 1e10 squared
+// twice, or a small density's inverse squared, is infinite and the weight NaN); only the weight becomes a Real.
+double mis(double ratio) { return ratio * ratio; }
 
 // A subpath as it grows, and what its last vertex x_i (reached from x_{i−1}) needs for the weights (Georgiev's
 // eqs. 31-33, without the merging):
@@ -65,14 +67,14 @@ Real mis(Real ratio) { return ratio * ratio; }
 // made of its running sums in O(1).
 struct SubpathState {
   Color beta{1};  // throughput: the path's contribution so far over its pdf
-  Real dVCM = 0;  // see above
-  Real dVC = 0;   // see above
+  double dVCM = 0; // see above
+  double dVC = 0;  // see above
 };
 
 // Updates the running sums at a new vertex, reached over `distance` and seen at |cos| `cosHit` from the last edge.
 void arrive(SubpathState& state, Real distance, Real cosHit)
 {
-  state.dVCM *= mis(distance * distance) / mis(cosHit);
+  state.dVCM *= mis(double(distance) * distance) / mis(cosHit);
   state.dVC /= mis(cosHit);
 }
 
@@ -86,8 +88,8 @@ void leave(SubpathState& state, const BsdfSample& bs, Real revPdf)
     state.dVCM = 0;
     state.dVC *= mis(cosOut);
   } else {
-    state.dVC = mis(cosOut / bs.pdf) * (state.dVC * mis(revPdf) + state.dVCM);
-    state.dVCM = mis(1 / bs.pdf);
+    state.dVC = mis(double(cosOut) / bs.pdf) * (state.dVC * mis(revPdf) + state.dVCM);
+    state.dVCM = mis(1 / double(bs.pdf));
   }
   state.beta *= bs.weight();
 }
@@ -193,7 +195,7 @@ void connectToCamera(const Context& c, const LightVertex& v)
   // The camera's density of this vertex per unit area: a pixel has area 1 on the plane at unitPixelDistance, so a
   // primary ray at angle θ to the view direction has density d²/cos³θ per steradian; × |cos at the vertex| / r².
   const Real cameraPdfA = primaryRayPdf(camera, glm::dot(camera.basis().w, toEye)) * std::abs(wo.z) / distance2;
-  const Real wLight = mis(cameraPdfA / c.lightPaths) * (v.state.dVCM + v.state.dVC * mis(bsdfPdf(m, wo, wi)));
+  const double wLight = mis(double(cameraPdfA) / c.lightPaths) * (v.state.dVCM + v.state.dVC * mis(bsdfPdf(m, wo, wi)));
   const Real weight = c.strategies.weight(v.s, 1, 1 / (1 + wLight));
   if (weight == 0 || c.scene.occluded(spawnRayTo(v.hit, camera.eye())))
     return;
@@ -224,7 +226,7 @@ std::vector<LightVertex> traceLightSubpath(const Context& c)
   const Real emissionPdfW = emissionPdf(c, y0->hit.primitive, y0->hit.point, direction); // the point and direction
   SubpathState state;
   state.beta = y0->Le * cosLight / emissionPdfW;
-  state.dVC = mis(cosLight / emissionPdfW);
+  state.dVC = mis(double(cosLight) / emissionPdfW);
   Ray ray = spawnRay(y0->hit, direction);
 
   for (int s = 2;; ++s) {
@@ -236,7 +238,7 @@ std::vector<LightVertex> traceLightSubpath(const Context& c)
       // y₁: the strategy s = 1 would have chosen y₀ from here by the light sampler's solid-angle density, so the
       // ratio it brings is known only now: p_conn(y₀)/p_emit(y₀), both per unit area.
       const Real directPdfW = c.lights.pdf(hit->point, y0->hit.primitive, y0->hit.point);
-      state.dVCM = mis(directPdfW * cosLight / (emissionPdfW * cosHit));
+      state.dVCM = mis(double(directPdfW) * cosLight / (double(emissionPdfW) * cosHit));
       state.dVC /= mis(cosHit);
     } else {
       arrive(state, hit->t, cosHit);
@@ -267,9 +269,10 @@ std::vector<LightVertex> traceLightSubpath(const Context& c)
 Real weightHitLight(const Context& c, const SubpathState& state, const Hit& hit, const Vec3& previous, Real cosLight)
 {
   const Vec3 d = hit.point - previous;
-  const Real directPdfA = c.lights.pdf(previous, hit.primitive, hit.point) * cosLight / glm::dot(d, d);
+  const double directPdfA =
+      double(c.lights.pdf(previous, hit.primitive, hit.point)) * cosLight / glm::dot(glm::dvec3(d), glm::dvec3(d));
   const Real emissionPdfW = emissionPdf(c, hit.primitive, hit.point, -d / std::sqrt(glm::dot(d, d)));
-  return 1 / (1 + mis(directPdfA) * state.dVCM + mis(emissionPdfW) * state.dVC);
+  return Real(1 / (1 + mis(directPdfA) * state.dVCM + mis(emissionPdfW) * state.dVC));
 }
 
 // s = 1: next-event estimation from camera vertex `hit` (wo towards the eye, local), as in chapter 7.
@@ -299,10 +302,10 @@ Color connectToLight(const Context& c, const SubpathState& state, const Hit& hit
     const Real emissionPdfW = emissionPdf(c, ls->primitive, y0, -ls->wi);
     // Against s = 0 (the BSDF's direction) and every s ≥ 2 (the light subpath from the same point, its ratio made
     // of solid-angle densities at both ends, whose distance terms cancel).
-    const Real wLight = mis(bsdfPdf(m, wo, wi) / ls->pdf);
-    const Real wCamera = mis(emissionPdfW * std::abs(wi.z) / (ls->pdf * cosAtLight)) *
-                         (state.dVCM + state.dVC * mis(bsdfPdf(m, wi, wo)));
-    weight = 1 / (1 + wLight + wCamera);
+    const double wLight = mis(double(bsdfPdf(m, wo, wi)) / ls->pdf);
+    const double wCamera = mis(double(emissionPdfW) * std::abs(wi.z) / (double(ls->pdf) * cosAtLight)) *
+                           (state.dVCM + state.dVC * mis(bsdfPdf(m, wi, wo)));
+    weight = Real(1 / (1 + wLight + wCamera));
   }
   weight = c.strategies.weight(1, t, weight);
   if (weight == 0 || !lightVisible(c.scene, hit, *ls))
@@ -330,10 +333,10 @@ Color connectVertices(const Context& c, const SubpathState& state, const Hit& hi
     return Color(0);
   const Real cosCamera = std::abs(wiCamera.z), cosLight = std::abs(woLight.z);
   // Each side's density of the other's vertex, per unit area: how the other strategies would have made this edge.
-  const Real cameraPdfA = bsdfPdf(mc, wo, wiCamera) * cosLight / distance2;
-  const Real lightPdfA = bsdfPdf(ml, wiLight, woLight) * cosCamera / distance2;
-  const Real wLight = mis(cameraPdfA) * (v.state.dVCM + v.state.dVC * mis(bsdfPdf(ml, woLight, wiLight)));
-  const Real wCamera = mis(lightPdfA) * (state.dVCM + state.dVC * mis(bsdfPdf(mc, wiCamera, wo)));
+  const double cameraPdfA = double(bsdfPdf(mc, wo, wiCamera)) * cosLight / distance2;
+  const double lightPdfA = double(bsdfPdf(ml, wiLight, woLight)) * cosCamera / distance2;
+  const double wLight = mis(cameraPdfA) * (v.state.dVCM + v.state.dVC * mis(bsdfPdf(ml, woLight, wiLight)));
+  const double wCamera = mis(lightPdfA) * (state.dVCM + state.dVC * mis(bsdfPdf(mc, wiCamera, wo)));
   const Real weight = c.strategies.weight(v.s, t, 1 / (1 + wLight + wCamera));
   if (weight == 0 || c.scene.occluded(spawnRayTo(hit, v.hit.point)))
     return Color(0);
@@ -352,7 +355,7 @@ Color trace(const Context& c, const Ray& primary)
   const Camera& camera = c.splats.camera();
   const Real cosAtCamera = -glm::dot(camera.basis().w, primary.direction);
   SubpathState state;
-  state.dVCM = mis(c.lightPaths / primaryRayPdf(camera, cosAtCamera));
+  state.dVCM = mis(double(c.lightPaths) / primaryRayPdf(camera, cosAtCamera));
   Color L(0);
   Ray ray = primary;
   Vec3 previous = primary.origin;
