@@ -66,8 +66,11 @@ inline bool withinSceneExtent(const Vec3& p)
 
 /// The largest index of refraction a glass may have. The Fresnel equations square it, which overflows double from
 /// about 10¹⁵⁴ (ior 1e160 gave bad samples in chapters 5, 6, 8 and 13, the ones tried); the bound keeps the same
-/// margin as kMaxSceneExtent. No transparent material comes near: diamond's index is 2.42.
-inline constexpr double kMaxIor = 1e50;
+/// margin as kMaxSceneExtent. Float overflows from about 1.8·10¹⁹ (ior 1e20 gave bad samples in chapters 5 to 8, 11
+/// and 13 to 16 of the float build), so there, and in chapter 17's float kernels, the bound is kMaxIorFloat. No
+/// transparent material comes near either: diamond's index is 2.42.
+inline constexpr double kMaxIorFloat = 1e10;
+inline constexpr double kMaxIor = sizeof(Real) == sizeof(float) ? kMaxIorFloat : 1e50; ///< (see above)
 
 /// Scenes with at most this many primitives (spheres and triangles) are searched as a flat list; larger ones through
 /// a BVH. Below the crossover a flat loop beats a tree (no boxes to test, no stack). Measured with

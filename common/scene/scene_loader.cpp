@@ -681,7 +681,9 @@ Material readMaterial(const Reader& r, const Json& j, const Path& path, const st
     if (m.ior < 1)
       r.fail(path / "ior", "the index of refraction must be at least 1, got " + j["ior"].dump());
     if (!(m.ior <= kMaxIor))
-      r.fail(path / "ior", "the index of refraction must be at most 1e50 (diamond's is 2.42), got " + j["ior"].dump());
+      r.fail(path / "ior", std::string("the index of refraction must be at most ") +
+                               (kMaxIor == kMaxIorFloat ? "1e10 in the float build" : "1e50") +
+                               " (diamond's is 2.42), got " + j["ior"].dump());
   }
   if (j.contains("roughness")) {
     m.roughness = r.number(j["roughness"], path / "roughness");

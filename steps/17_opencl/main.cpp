@@ -86,6 +86,10 @@ struct DeviceScene {
     // Materials: (colour, type), (emission, ior), (roughness).
     std::vector<cl_float4> materialData;
     for (const Material& m : scene.materials) {
+      // The kernels square a glass's index in float (the Fresnel equations), past which it would be infinite.
+      if (m.type == MaterialType::Glass && m.ior > kMaxIorFloat)
+        throw ChapterError(scene.fileName + ": material '" + m.name + "': an index of refraction above 1e10 is "
+                           "beyond what the float kernels can square (diamond's is 2.42)");
       materialData.push_back(float4(m.color, Real(int(m.type))));
       materialData.push_back(float4(m.emission, m.ior));
       materialData.push_back(cl_float4{{float(m.roughness), 0, 0, 0}});

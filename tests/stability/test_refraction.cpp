@@ -11,12 +11,16 @@
 // Naive, for contrast: the textbook formula without the TIR test (√ of a negative number: NaN; and at η = 1 its
 // 1 − (1 − cos²θ) bends grazing rays), and Schlick's approximation evaluated with the incident cosine (it never
 // reaches 1 under TIR when light leaves glass).
+#include "scene/scene.h"
 #include "shading/bsdf.h"
 #include "support.h"
 
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <iomanip>
+#include <numbers>
+#include <sstream>
 
 using namespace raylife;
 using namespace raylife::stability;
@@ -108,5 +112,41 @@ TEST_CASE("stability 5: refraction is finite and unit with TIR exactly where eta
                 " within 64 ulp of the critical angle), naive NaN " + std::to_string(naiveNaN) +
                 ", naive Schlick < 1 under TIR " + std::to_string(schlickBelowOne) +
                 ", naive directions bent at eta 1: " + std::to_string(naiveChanged) + ", robust: " + std::to_string(changed));
+  }
+}
+
+TEST_CASE("stability 5: refraction and Fresnel stay finite at the largest index the loader takes, which refuses more",
+          "[stability][refraction]")
+{
+  // The Fresnel equations square the index: an ior of 1e20, accepted by the float build before kMaxIor had a float
+  // bound, gave bad samples in ten chapters of it (stability case 12, 400 scenes). At the bound, in the build's own
+  // scalar, every direction and reflectance is finite, from either side and at every angle swept here.
+  for (const Real eta : {Real(kMaxIor), Real(1) / Real(kMaxIor)})
+    for (int i = 0; i <= 1000; ++i) {
+      const Real theta = Real(i) / 1000 * Real(std::numbers::pi / 2);
+      const Vec3 wo(std::sin(theta), 0, std::cos(theta));
+      const Real F = fresnelDielectric(wo.z, eta);
+      INFO("eta " << eta << ", theta " << theta);
+      REQUIRE(std::isfinite(F));
+      CHECK((F >= 0 && F <= 1));
+      if (const std::optional<Vec3> t = refract(wo, Vec3(0, 0, 1), eta)) {
+        REQUIRE(std::isfinite(t->x));
+        REQUIRE(std::isfinite(t->z));
+      }
+    }
+  auto scene = [](const std::string& ior) {
+    return R"({"camera": {"eye": [0, 0, 3], "focal": [0, 0, 0], "up": [0, 1, 0], "vfov": 40, "width": 4, "height": 3},
+      "materials": {"g": {"type": "glass", "ior": )" + ior + R"(}},
+      "spheres": [{"center": [0, 0, 0], "radius": 1, "material": "g"}]})";
+  };
+  std::ostringstream bound, past;
+  bound << std::setprecision(17) << kMaxIor;
+  past << std::setprecision(17) << kMaxIor * 10;
+  CHECK(parseScene(scene(bound.str()), "ior.json").materials[0].ior == Real(kMaxIor));
+  try {
+    parseScene(scene(past.str()), "ior.json");
+    FAIL("an index of refraction ten times kMaxIor was accepted");
+  } catch (const SceneError& e) {
+    CHECK(std::string(e.what()).find("/materials/g/ior: the index of refraction must be at most") != std::string::npos);
   }
 }
