@@ -1136,7 +1136,7 @@ void readDensity(const Reader& r, const Json& j, const Path& path, const std::st
   const Color sigmaT = m.sigmaT();
   const Real sMax = std::max({sigmaT.r, sigmaT.g, sigmaT.b});
   const Real rate = sMax * grid->globalMajorant;
-  const double diagonal = glm::length(glm::dvec3(grid->hi) - glm::dvec3(grid->lo));
+  const double diagonal = grid->diagonal();
   const double thickness = double(sMax) * double(grid->globalMajorant) * diagonal;
   auto g3 = [](double v) {
     char text[32];

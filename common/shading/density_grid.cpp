@@ -30,6 +30,13 @@ Real DensityGrid::density(const Vec3& p) const
   return std::max(Real(0), c0 * (1 - f[2]) + c1 * f[2]);
 }
 
+double DensityGrid::diagonal() const
+{
+  const glm::dvec3 side = glm::dvec3(hi) - glm::dvec3(lo);
+  const double longest = std::max({side.x, side.y, side.z});
+  return longest > 0 ? longest * glm::length(side / longest) : 0;
+}
+
 void DensityGrid::buildMajorants(int cells)
 {
   const Vec3 extent = hi - lo;

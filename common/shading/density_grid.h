@@ -38,6 +38,10 @@ struct DensityGrid {
   /// Fills `majorants` with a grid of `cells` cells along the longest axis (fewer along the others, at least 1),
   /// each the maximum of the values that interpolation may reach inside it, and `globalMajorant`.
   void buildMajorants(int cells);
+
+  /// The box's diagonal, in scene units (> 0 for a box with lo < hi), the longest chord a ray can have in it. Its
+  /// sides are scaled by the longest before they are squared, so a box 1e-300 across does not come out 0.
+  double diagonal() const;
 };
 
 /// One stretch of a ray over which the majorant density is constant.

@@ -237,8 +237,7 @@ std::string checkMedium(const Medium& m)
       return "a density that is negative, not finite or above the global majorant was accepted";
   const Color sigmaT = m.sigmaT();
   const Real sMax = std::max({sigmaT.r, sigmaT.g, sigmaT.b});
-  const double thickness =
-      double(sMax) * double(grid.globalMajorant) * glm::length(glm::dvec3(grid.hi) - glm::dvec3(grid.lo));
+  const double thickness = double(sMax) * double(grid.globalMajorant) * grid.diagonal();
   if (!std::isfinite(Real(3) * (sMax * grid.globalMajorant)) || !(thickness <= 1e9)) // (as the loader reckons it)
     return "a density medium that takes more than 1e9 steps to cross was accepted";
   if (!(thickness <= 1e4))

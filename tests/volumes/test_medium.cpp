@@ -304,6 +304,13 @@ TEST_CASE("scene keys: a density file's faults are refused, naming the file and 
     CHECK(error(scene(R"({"file": "tiny.json"})", "1e308"))
               .find("/media/smoke/density: sigma_t (1e+308, the largest channel of sigma_a + sigma_s) times the "
                     "largest density (1) is beyond the range of the renderer's numbers") != std::string::npos);
+    // A box 1e-170 across, whose sides squared underflow to 0: its diagonal is still 1.73e-170, so a rate of 1e180
+    // is 1.7e10 collisions across, and refused (CI's fuzzer found a box whose diagonal had come out 0).
+    write("speck.json",
+          R"({"resolution": [1, 1, 2], "bounds": [[0, 0, 0], [1e-170, 1e-170, 1e-170]], "density": [1, 1]})");
+    CHECK(error(scene(R"({"file": "speck.json"})", "1e180"))
+              .find("would meet 1.73e+10 tentative collisions (sigma_t 1e+180 x density 1 x the box's diagonal "
+                    "1.73e-170)") != std::string::npos);
   }
   const Scene fine = parseScene(scene(R"({"file": "good.json", "majorant_cells": 4})"), sceneName);
   CHECK(fine.media[0].density->mz == 4);
