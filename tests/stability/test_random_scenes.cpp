@@ -399,10 +399,10 @@ TEST_CASE("stability 12: random hostile scenes render cleanly or are refused in 
 TEST_CASE("stability 12: random hostile scenes with media render cleanly or are refused in one line",
           "[stability][random][media]")
 {
-  // The same scenes with media: one to three, each homogeneous or over a density grid (its file beside the scene),
-  // coefficients from 0 and subnormal to 1e6 per unit of the scene's size, g to within 1e-6 of ±1, spheres bounding
-  // them as interfaces or as surfaces, a medium everywhere, the camera in one; in a tenth, g = 1, a negative
-  // coefficient or sigma_s = 1e300 (refused over a density grid, which could not be crossed).
+  // Scenes of the same kind from another seed, with media: one to three, homogeneous or over a density grid (its
+  // file beside the scene), coefficients from 0 and subnormal to 1e6 per unit of the scene's size, g to within 1e-6
+  // of ±1, spheres bounding them as interfaces or as surfaces, a medium everywhere, the camera in one; in a tenth,
+  // g = 1, a negative coefficient or sigma_s = 1e300 (refused over a density grid, which could not be crossed).
   constexpr int kScenes = 40;
   SceneWriter writer(20261206, std::string(RAYLIFE_STABILITY_OUT_DIR) + "/random_media_");
   const auto [rendered, refused] = renderRandomScenes(writer, kScenes, "random_media", kMediaChapters);
