@@ -1,6 +1,7 @@
 #include "scene/scene.h"
 
 #include <algorithm>
+#include <cstdio>
 
 namespace raylife {
 
@@ -286,6 +287,36 @@ Real Scene::textureScale(int primitive, const Vec3& point, Real time) const
     uvArea = std::abs(a.x * b.y - a.y * b.x);
   }
   return area > 0 ? std::sqrt(uvArea / area) : 0;
+}
+
+std::string beyondSceneExtent(const Scene& scene, double bound)
+{
+  auto show = [](const Vec3& p) {
+    char text[96];
+    std::snprintf(text, sizeof text, "(%.6g, %.6g, %.6g)", double(p.x), double(p.y), double(p.z));
+    return std::string(text);
+  };
+  if (!withinSceneExtent(scene.camera.eye, bound))
+    return "the camera's eye, " + show(scene.camera.eye);
+  if (!withinSceneExtent(scene.camera.focal, bound))
+    return "the camera's focal point, " + show(scene.camera.focal);
+  for (std::size_t i = 0; i < scene.spheres.size(); ++i) {
+    const Sphere& s = scene.spheres[i];
+    if (!withinSceneExtent(s.center, bound))
+      return "sphere " + std::to_string(i) + "'s centre, " + show(s.center);
+    if (!withinSceneExtent(s.radius, bound)) {
+      char radius[32];
+      std::snprintf(radius, sizeof radius, "%.6g", double(s.radius));
+      return "sphere " + std::to_string(i) + "'s radius, " + radius;
+    }
+  }
+  for (std::size_t i = 0; i < scene.vertices.size(); ++i)
+    if (!withinSceneExtent(scene.vertices[i], bound))
+      return "mesh vertex " + std::to_string(i) + ", " + show(scene.vertices[i]);
+  for (std::size_t i = 0; i < scene.lights.size(); ++i)
+    if (!withinSceneExtent(scene.lights[i].position, bound))
+      return "point light " + std::to_string(i) + "'s position, " + show(scene.lights[i].position);
+  return {};
 }
 
 } // namespace raylife

@@ -46,22 +46,34 @@ struct CameraSpec {
 /// 6.3 GiB.
 inline constexpr std::int64_t kMaxPixels = std::int64_t(1) << 26;
 
+/// The largest magnitude a scene's geometry may have in the float build, and in chapter 17's float kernels, in
+/// scene units (see kMaxSceneExtent). Float's range ends at 3.4·10³⁸, and a triangle's area is the length of a cross
+/// product of two edges, whose squared length is a fourth power of the scene's size: with every coordinate within
+/// 10⁸ it stays below 1.5·10³⁴. Measured in the float build, scaling scenes up by powers of ten: the original Cornell
+/// box with its corners at 5.6·10¹⁰ gave bad samples in chapters 7, 8, 11 and 13 to 16 (its lamp's area was
+/// infinite); at 5.6·10¹² chapters 10 and 17 lost hits as well (the watertight test's scaled distance is a cube of
+/// the size); smallpt's room with its walls' radius at 10²⁰ (whose square is infinite in float) rendered wrong
+/// images, without a word, in chapters 8 and 17.
+inline constexpr double kMaxSceneExtentFloat = 1e8;
+
 /// The largest magnitude a scene's geometry may have, in scene units: each coordinate of a sphere's centre (also at
 /// the end of its motion), of a mesh vertex after its transform, of the camera's eye and focal point and of a point
 /// light; a sphere's radius, the lens's aperture and its focus distance. Far beyond what any scene needs (10⁵⁰ metres
 /// is 10²³ times the observable universe), the bound keeps what the renderer squares in double's range: an emitting
 /// sphere or triangle 10⁸⁰ across gave bad samples in chapter 13 (10⁶⁰ did not), whose MIS weights square areas and
 /// densities, and a triangle with vertices 10²⁵⁰ apart has an infinite area, which gave bad samples in chapters 7,
-/// 8, 11 and 13. (The float build's range is far smaller; its loader checks only that each number is finite in
-/// float.)
-inline constexpr double kMaxSceneExtent = 1e50;
+/// 8, 11 and 13. The float build's bound is kMaxSceneExtentFloat.
+inline constexpr double kMaxSceneExtent = sizeof(Real) == sizeof(float) ? kMaxSceneExtentFloat : 1e50;
+/// kMaxSceneExtent as the loader's messages write it.
+inline constexpr const char* kMaxSceneExtentText = sizeof(Real) == sizeof(float) ? "1e8" : "1e50";
 
-/// True when |v| ≤ kMaxSceneExtent (false for NaN): what the loader demands of every length and coordinate.
-inline bool withinSceneExtent(Real v) { return std::abs(double(v)) <= kMaxSceneExtent; }
-/// True when each coordinate of `p` lies within ±kMaxSceneExtent.
-inline bool withinSceneExtent(const Vec3& p)
+/// True when |v| ≤ bound (false for NaN): with kMaxSceneExtent, what the loader demands of every length and
+/// coordinate.
+inline bool withinSceneExtent(Real v, double bound = kMaxSceneExtent) { return std::abs(double(v)) <= bound; }
+/// True when each coordinate of `p` lies within ±bound.
+inline bool withinSceneExtent(const Vec3& p, double bound = kMaxSceneExtent)
 {
-  return withinSceneExtent(p.x) && withinSceneExtent(p.y) && withinSceneExtent(p.z);
+  return withinSceneExtent(p.x, bound) && withinSceneExtent(p.y, bound) && withinSceneExtent(p.z, bound);
 }
 
 /// The largest index of refraction a glass may have. The Fresnel equations square it, which overflows double from
@@ -287,6 +299,12 @@ struct Scene {
   /// lens (aperture and focus).
   Camera makeCamera(int width = 0, int height = 0) const;
 };
+
+/// The first place where `scene`'s geometry lies beyond ±bound, as a phrase ("sphere 3's radius, 2e+20"), or an
+/// empty string when it all lies within. What is checked: the camera's eye and focal point, each sphere's centre and
+/// radius, each mesh vertex and each point light's position (the lens and the motion are not: for chapter 17, whose
+/// float kernels use neither, against kMaxSceneExtentFloat, where the loader has checked kMaxSceneExtent).
+std::string beyondSceneExtent(const Scene& scene, double bound);
 
 /// A fault in a scene file. what() is the whole message: "FILE:LINE:COLUMN: /json/path: what is wrong".
 class SceneError : public std::runtime_error {

@@ -467,7 +467,8 @@ public:
     const Vec3 p = vec3(j, path);
     for (std::size_t c = 0; c < 3; ++c)
       if (!withinSceneExtent(p[int(c)]))
-        fail(path / c, "a coordinate must lie within ±1e50 (raylife's bound on a scene's size), got " + j[c].dump());
+        fail(path / c, std::string("a coordinate must lie within ±") + kMaxSceneExtentText +
+                            " (raylife's bound on a scene's size), got " + j[c].dump());
     return p;
   }
 
@@ -533,12 +534,14 @@ void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& ca
   if (j.contains("aperture")) {
     cam.aperture = r.number(j["aperture"], path / "aperture");
     if (!(cam.aperture >= 0 && withinSceneExtent(cam.aperture)))
-      r.fail(path / "aperture", "the aperture (the lens radius) must lie in [0, 1e50], got " + j["aperture"].dump());
+      r.fail(path / "aperture", std::string("the aperture (the lens radius) must lie in [0, ") + kMaxSceneExtentText +
+                                    "], got " + j["aperture"].dump());
   }
   if (j.contains("focus")) {
     cam.focus = r.number(j["focus"], path / "focus");
     if (!(cam.focus > 0 && withinSceneExtent(cam.focus)))
-      r.fail(path / "focus", "the focus distance must be greater than 0 and at most 1e50, got " + j["focus"].dump());
+      r.fail(path / "focus", std::string("the focus distance must be greater than 0 and at most ") +
+                                 kMaxSceneExtentText + ", got " + j["focus"].dump());
   }
   auto basis = makeCameraBasis(cam.eye, cam.focal, cam.up);
   if (auto* error = std::get_if<BasisError>(&basis))
@@ -931,7 +934,7 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
       char at[96];
       std::snprintf(at, sizeof at, "(%.6g, %.6g, %.6g)", double(p.x), double(p.y), double(p.z));
       r.fail(path / "transform", std::string("the transform takes a vertex to ") + at +
-                                     ", beyond ±1e50 (raylife's bound on a scene's size)");
+                                     ", beyond ±" + kMaxSceneExtentText + " (raylife's bound on a scene's size)");
     }
   }
   mesh.firstTriangle = std::uint32_t(scene.triangles.size());
@@ -1112,7 +1115,8 @@ void readDensity(const Reader& r, const Json& j, const Path& path, const std::st
     for (std::size_t a = 0; a < 3; ++a) {
       if (!bounds[k][a].is_number() || !std::isfinite(bounds[k][a].get<double>()) ||
           !withinSceneExtent(Real(bounds[k][a].get<double>())))
-        bad("/bounds/" + std::to_string(k) + "/" + std::to_string(a), "expected a finite coordinate within +-1e50");
+        bad("/bounds/" + std::to_string(k) + "/" + std::to_string(a),
+            std::string("expected a finite coordinate within +-") + kMaxSceneExtentText);
       (k == 0 ? grid->lo : grid->hi)[int(a)] = Real(bounds[k][a].get<double>());
     }
   }
@@ -1396,14 +1400,15 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
       if (!(s.radius > 0))
         r.fail(p / "radius", "the radius must be greater than 0, got " + js["radius"].dump());
       if (!withinSceneExtent(s.radius))
-        r.fail(p / "radius", "the radius must be at most 1e50 (raylife's bound on a scene's size), got " +
-                                 js["radius"].dump());
+        r.fail(p / "radius", std::string("the radius must be at most ") + kMaxSceneExtentText +
+                                 " (raylife's bound on a scene's size), got " + js["radius"].dump());
       s.material = material(js, p);
       if (js.contains("velocity")) {
         s.velocity = r.vec3(js["velocity"], p / "velocity");
         if (!withinSceneExtent(s.center + s.velocity))
-          r.fail(p / "velocity", "the sphere's centre at the end of the shutter interval (center + velocity) lies "
-                                 "beyond ±1e50 (raylife's bound on a scene's size)");
+          r.fail(p / "velocity", std::string("the sphere's centre at the end of the shutter interval (center + "
+                                             "velocity) lies beyond ±") +
+                                     kMaxSceneExtentText + " (raylife's bound on a scene's size)");
       }
       if (js.contains("rotate")) { // its texture turned about +y (chapter 14), in degrees
         const Real angle = r.number(js["rotate"], p / "rotate") * kPi / 180;

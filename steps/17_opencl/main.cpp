@@ -57,6 +57,11 @@ struct DeviceScene {
 
   DeviceScene(const cl::Context& context, const Scene& scene, bool sampleLights)
   {
+    // The kernels square lengths, and a triangle's area squares a squared one, in float: past kMaxSceneExtentFloat
+    // (the float build's own bound) that leaves float's range, and the image would be wrong without a word.
+    if (const std::string beyond = beyondSceneExtent(scene, kMaxSceneExtentFloat); !beyond.empty())
+      throw ChapterError(scene.fileName + ": " + beyond + ", lies beyond ±1e8, the largest scene the float kernels "
+                         "can square (the float build's bound; scale the scene down)");
     std::vector<cl_float4> sphereData, vertexData, normalData;
     std::vector<cl_int> sphereMaterial;
     for (const Sphere& s : scene.spheres) {

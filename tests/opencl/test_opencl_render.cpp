@@ -4,7 +4,9 @@
 // every time; and what goes wrong (no device, a bad --device, kernels that do not build) it says, writing nothing.
 #include "../analytic/run_chapter.h"
 #include "../lights/compare_renders.h"
+#include "../stability/scene_scale.h"
 
+#include "render/image_io.h"
 #include "scene/scene.h"
 
 #include <catch2/catch.hpp>
@@ -176,5 +178,44 @@ TEST_CASE("opencl: a glass whose index the float kernels cannot square is refuse
     }
     std::filesystem::remove(stem + ".png");
   }
+  std::filesystem::remove(stem + ".json");
+}
+
+TEST_CASE("opencl: a scene larger than the float kernels can square is refused in one line, naming the place")
+{
+  // The double build's loader takes a scene up to 1e50 across; the kernels square lengths in float. smallpt's room
+  // with its walls' radius at 1e20 rendered a bright, wrong image, with no bad sample to show it. At the float build's
+  // bound, 1e8, it renders as at its own size.
+  const std::string stem = "/tmp/raylife_opencl_size_" + std::to_string(::getpid());
+  const nlohmann::json scene = nlohmann::json::parse(readText(kScenes + "/smallpt.json"));
+  REQUIRE(largestMagnitude(scene) == 100001); // the red wall's centre
+  auto render = [&stem](const nlohmann::json& j) {
+    std::ofstream(stem + ".json") << j.dump();
+    std::filesystem::remove(stem + ".pfm");
+    return runStep17("'" + stem + ".json' --width 32 --height 24 --spp 64 -o '" + stem + ".pfm'");
+  };
+  auto mean = [&stem]() {
+    const Image image = readPfm(stem + ".pfm");
+    double sum = 0;
+    for (const float v : image.pixels)
+      sum += v;
+    return sum / double(image.pixels.size());
+  };
+  REQUIRE(render(scene).first == 0);
+  const double own = mean();
+  const nlohmann::json atBound = scaledScene(scene, 990);
+  REQUIRE(largestMagnitude(atBound) <= kMaxSceneExtentFloat);
+  REQUIRE(largestMagnitude(atBound) > 0.99 * kMaxSceneExtentFloat);
+  const auto [status, message] = render(atBound);
+  INFO(message);
+  REQUIRE(status == 0);
+  CHECK(std::abs(mean() - own) <= 0.1 * own);
+  const auto [beyondStatus, beyondMessage] = render(scaledScene(scene, 1e5));
+  INFO(beyondMessage);
+  CHECK(beyondStatus == 1);
+  CHECK(beyondMessage.find(stem + ".json: sphere 0's centre, (1.00001e+10, 4.08e+06, 8.16e+06), lies beyond ±1e8") !=
+        std::string::npos);
+  CHECK(std::count(beyondMessage.begin(), beyondMessage.end(), '\n') == 1);
+  CHECK_FALSE(std::filesystem::exists(stem + ".pfm"));
   std::filesystem::remove(stem + ".json");
 }

@@ -41,7 +41,7 @@ TEST_CASE("every aligned block of 2^k points of a pixel's sequence is a (0, k, 2
             REQUIRE(p.x < 1);
             REQUIRE(p.y >= 0);
             REQUIRE(p.y < 1);
-            count[std::size_t(int(p.y * ny) * nx + int(p.x * nx))] += 1;
+            count[std::size_t(int(p.y * Real(ny)) * nx + int(p.x * Real(nx)))] += 1;
           }
           for (int c : count)
             net = net && c == 1;
