@@ -58,14 +58,17 @@ inline constexpr double kMaxSceneExtentFloat = 1e8;
 
 /// The largest magnitude a scene's geometry may have, in scene units: each coordinate of a sphere's centre (also at
 /// the end of its motion), of a mesh vertex after its transform, of the camera's eye and focal point and of a point
-/// light; a sphere's radius, the lens's aperture and its focus distance. Far beyond what any scene needs (10⁵⁰ metres
-/// is 10²³ times the observable universe), the bound keeps what the renderer squares in double's range: an emitting
-/// sphere or triangle 10⁸⁰ across gave bad samples in chapter 13 (10⁶⁰ did not), whose MIS weights square areas and
-/// densities, and a triangle with vertices 10²⁵⁰ apart has an infinite area, which gave bad samples in chapters 7,
-/// 8, 11 and 13. The float build's bound is kMaxSceneExtentFloat.
-inline constexpr double kMaxSceneExtent = sizeof(Real) == sizeof(float) ? kMaxSceneExtentFloat : 1e50;
+/// light; a sphere's radius, the lens's aperture and its focus distance. Far beyond what any scene needs (10³⁰ metres
+/// is 10⁴ times the observable universe), the bound keeps the tree's boxes, which are float (bvh.h), inside float's
+/// range (3.4·10³⁸) with room to spare: beyond it every ray entered every box, and chapter 10's model scaled to
+/// 8·10³⁹ rendered the same image 36 times slower (stability case 14). It also keeps what the renderer squares in
+/// double's range: an emitting sphere or triangle 10⁸⁰ across gave bad samples in chapter 13, whose MIS weights
+/// square areas and densities, and a triangle with vertices 10²⁵⁰ apart has an infinite area, which gave bad samples
+/// in chapters 7, 8, 11 and 13. (The bound was 10⁵⁰ until case 14 found the tree's cliff.) The float build's bound is
+/// kMaxSceneExtentFloat.
+inline constexpr double kMaxSceneExtent = sizeof(Real) == sizeof(float) ? kMaxSceneExtentFloat : 1e30;
 /// kMaxSceneExtent as the loader's messages write it.
-inline constexpr const char* kMaxSceneExtentText = sizeof(Real) == sizeof(float) ? "1e8" : "1e50";
+inline constexpr const char* kMaxSceneExtentText = sizeof(Real) == sizeof(float) ? "1e8" : "1e30";
 
 /// True when |v| ≤ bound (false for NaN): with kMaxSceneExtent, what the loader demands of every length and
 /// coordinate.
@@ -77,8 +80,8 @@ inline bool withinSceneExtent(const Vec3& p, double bound = kMaxSceneExtent)
 }
 
 /// The largest index of refraction a glass may have. The Fresnel equations square it, which overflows double from
-/// about 10¹⁵⁴ (ior 1e160 gave bad samples in chapters 5, 6, 8 and 13, the ones tried); the bound keeps the same
-/// margin as kMaxSceneExtent. Float overflows from about 1.8·10¹⁹ (ior 1e20 gave bad samples in chapters 5 to 8, 11
+/// about 10¹⁵⁴ (ior 1e160 gave bad samples in chapters 5, 6, 8 and 13, the ones tried); 10⁵⁰ leaves a wide
+/// margin. Float overflows from about 1.8·10¹⁹ (ior 1e20 gave bad samples in chapters 5 to 8, 11
 /// and 13 to 16 of the float build), so there, and in chapter 17's float kernels, the bound is kMaxIorFloat. No
 /// transparent material comes near either: diamond's index is 2.42.
 inline constexpr double kMaxIorFloat = 1e10;

@@ -927,14 +927,17 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
     if (!isFinite(p))
       r.fail(path / "transform", "the transform takes a vertex beyond the range of " +
                                      std::string(sizeof(Real) == 4 ? "float" : "double"));
-    // An inline vertex was checked as it was read, and a file's are floats (below 3.4e38): only the transform
-    // takes one past the bound.
+    // An inline vertex was checked as it was read; a file's are floats (up to 3.4e38), which may lie beyond the
+    // bound themselves, or be taken there by the transform.
     if (!withinSceneExtent(p)) {
       // Named by where it lands: a file's vertices may be renumbered by the reader.
       char at[96];
       std::snprintf(at, sizeof at, "(%.6g, %.6g, %.6g)", double(p.x), double(p.y), double(p.z));
-      r.fail(path / "transform", std::string("the transform takes a vertex to ") + at +
-                                     ", beyond ±" + kMaxSceneExtentText + " (raylife's bound on a scene's size)");
+      const std::string beyond = std::string(at) + ", beyond ±" + kMaxSceneExtentText +
+                                 " (raylife's bound on a scene's size)";
+      if (j.contains("transform"))
+        r.fail(path / "transform", "the transform takes a vertex to " + beyond);
+      r.fail(path / "file", "a vertex of the file lies at " + beyond + "; a transform's scale can bring it in");
     }
   }
   mesh.firstTriangle = std::uint32_t(scene.triangles.size());

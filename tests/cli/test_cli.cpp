@@ -154,25 +154,25 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
       {"a key that does not apply to the material", withFault(R"([0.8, 0.2, 0.2] })", R"([0.8, 0.2, 0.2], "ior": 1.3 })"),
        "scene.json:6:68: /materials/red/ior: 'ior' does not apply to a diffuse material (only to glass)"},
       {"a negative aperture", withFault(R"("vfov": 40)", R"("vfov": 40, "aperture": -1)"),
-       "scene.json:2:94: /camera/aperture: the aperture (the lens radius) must lie in [0, 1e50], got -1"},
+       "scene.json:2:94: /camera/aperture: the aperture (the lens radius) must lie in [0, 1e30], got -1"},
       {"a focus distance of 0", withFault(R"("vfov": 40)", R"("vfov": 40, "focus": 0)"),
-       "scene.json:2:91: /camera/focus: the focus distance must be greater than 0 and at most 1e50, got 0"},
+       "scene.json:2:91: /camera/focus: the focus distance must be greater than 0 and at most 1e30, got 0"},
       {"a velocity that is not a vector", withFault(R"("radius": 1,)", R"("radius": 1, "velocity": 3,)"),
        "scene.json:11:53: /spheres/1/velocity: expected an array of 3 numbers [x, y, z], got number 3"},
       {"a velocity that carries the sphere past the bound on a scene's size",
        withFault(R"("center": [0, 1, 0], "radius": 1,)",
-                 R"("center": [1e50, 1, 0], "radius": 1, "velocity": [1e308, 0, 0],)"),
+                 R"("center": [1e30, 1, 0], "radius": 1, "velocity": [1e308, 0, 0],)"),
        "scene.json:11:56: /spheres/1/velocity: the sphere's centre at the end of the shutter interval (center + "
-       "velocity) lies beyond ±1e50 (raylife's bound on a scene's size)"},
-      {"a centre beyond the bound on a scene's size", withFault(R"("center": [0, 1, 0])", R"("center": [0, -2e50, 0])"),
-       "scene.json:11:21: /spheres/1/center/1: a coordinate must lie within ±1e50 (raylife's bound on a scene's "
-       "size), got -2e+50"},
-      {"a radius beyond the bound on a scene's size", withFault(R"("radius": 1,)", R"("radius": 1e60,)"),
-       "scene.json:11:38: /spheres/1/radius: the radius must be at most 1e50 (raylife's bound on a scene's size), "
-       "got 1e+60"},
-      {"a light beyond the bound on a scene's size", withFault(R"("position": [5, 8, 5])", R"("position": [5, 8, 1e51])"),
-       "scene.json:13:53: /lights/0/position/2: a coordinate must lie within ±1e50 (raylife's bound on a scene's "
-       "size), got 1e+51"},
+       "velocity) lies beyond ±1e30 (raylife's bound on a scene's size)"},
+      {"a centre beyond the bound on a scene's size", withFault(R"("center": [0, 1, 0])", R"("center": [0, -2e30, 0])"),
+       "scene.json:11:21: /spheres/1/center/1: a coordinate must lie within ±1e30 (raylife's bound on a scene's "
+       "size), got -2e+30"},
+      {"a radius beyond the bound on a scene's size", withFault(R"("radius": 1,)", R"("radius": 1e40,)"),
+       "scene.json:11:38: /spheres/1/radius: the radius must be at most 1e30 (raylife's bound on a scene's size), "
+       "got 1e+40"},
+      {"a light beyond the bound on a scene's size", withFault(R"("position": [5, 8, 5])", R"("position": [5, 8, 1e31])"),
+       "scene.json:13:53: /lights/0/position/2: a coordinate must lie within ±1e30 (raylife's bound on a scene's "
+       "size), got 1e+31"},
       {"a metal roughness above 1", withFault(R"("type": "diffuse", "color": [0.8, 0.2, 0.2])",
                                               R"("type": "metal", "color": [0.8, 0.2, 0.2], "roughness": 1.5)"),
        "scene.json:6:72: /materials/red/roughness: a metal's roughness (GGX alpha) must lie in [0, 1], got 1.5"},
@@ -196,7 +196,7 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
            "... is too large for a double"},
       {"a number in 308 digits, which a double holds", withFault(R"("radius": 1,)", R"("radius": )" +
                                                                  std::string(308, '9') + ","),
-       "scene.json:11:38: /spheres/1/radius: the radius must be at most 1e50 (raylife's bound on a scene's size), "
+       "scene.json:11:38: /spheres/1/radius: the radius must be at most 1e30 (raylife's bound on a scene's size), "
        "got 1e+308"},
       {"an index of refraction below 1", withFault(R"("ior": 1.5)", R"("ior": 0.9)"),
        "scene.json:7:60: /materials/glass/ior: the index of refraction must be at least 1, got 0.9"},

@@ -183,7 +183,7 @@ TEST_CASE("opencl: a glass whose index the float kernels cannot square is refuse
 
 TEST_CASE("opencl: a scene larger than the float kernels can square is refused in one line, naming the place")
 {
-  // The double build's loader takes a scene up to 1e50 across; the kernels square lengths in float. smallpt's room
+  // The double build's loader takes a scene up to 1e30 across; the kernels square lengths in float. smallpt's room
   // with its walls' radius at 1e20 rendered a bright, wrong image, with no bad sample to show it. At the float build's
   // bound, 1e8, it renders as at its own size.
   const std::string stem = "/tmp/raylife_opencl_size_" + std::to_string(::getpid());

@@ -47,6 +47,13 @@ void renderEveryStressScene(std::initializer_list<const char*> chapters, const s
       const ChapterRun run = runChapter(chapter, scene.string(),
                                         std::string("finite_") + chapter + "_" + scene.stem().string(), extra);
       INFO(chapter << " on " << scene.filename().string() << ", standard error:\n" << run.err);
+      // (Its lengths of 1e9 and more lie beyond the float build's bound on a scene's size, kMaxSceneExtentFloat:
+      // there it must be refused in one line, as case 14 checks of every scene beyond the bound.)
+      if (sizeof(Real) == sizeof(float) && scene.filename() == "inside_huge_glossy_sphere.json") {
+        CHECK(run.status == 1);
+        CHECK(run.err.find("raylife's bound on a scene's size") != std::string::npos);
+        continue;
+      }
       REQUIRE(run.status == 0);
       CHECK(run.badSamples == 0);
       CHECK(badPixels(run.image) == 0);
@@ -75,7 +82,8 @@ TEST_CASE("stability 10: every stress scene renders in chapters 10-13 with no ba
   // Meshes, the lens and shutter, ambient occlusion and BDPT, on the same scenes: among them smooth_limits.json,
   // whose glossy spheres of roughness 1e-10 and 1e-30 gave NaN in every Monte Carlo chapter before glossy took
   // the mirror's limit below kMinPhongRoughness, and inside_huge_glossy_sphere.json, whose lengths of 1e9 and more
-  // gave the float build's BDPT NaN weights (6,155 of its 6,912 samples) before its running sums went to double.
+  // gave the float build's BDPT NaN weights (6,155 of its 6,912 samples) before its running sums went to double
+  // (the float build now refuses it: it lies beyond ±1e8).
   renderEveryStressScene({"step10_meshes", "step11_distributed", "step12_ambient_occlusion", "step13_bdpt"},
                          "--width 48 --height 36 --spp 4", "10-13");
 }

@@ -245,24 +245,31 @@ TEST_CASE("bad mesh entries and bad mesh files are refused with one message nami
 
       {"an inline vertex beyond the bound on a scene's size", "", "",
        R"({ "material": "white", "vertices": [[0,0,0],[0,-1e250,0],[0,1,0]], "triangles": [[0, 1, 2]] })",
-       "/meshes/0/vertices/1/1: a coordinate must lie within ±1e50 (raylife's bound on a scene's size), got -1e+250"},
+       "/meshes/0/vertices/1/1: a coordinate must lie within ±1e30 (raylife's bound on a scene's size), got -1e+250"},
       {"a transform that takes a vertex beyond the bound on a scene's size", "", "",
        R"({ "material": "white", "vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 2]],
-            "transform": { "scale": 2e50 } })",
-       "/meshes/0/transform: the transform takes a vertex to (2e+50, 0, 0), beyond ±1e50 (raylife's bound on a "
+            "transform": { "scale": 2e30 } })",
+       "/meshes/0/transform: the transform takes a vertex to (2e+30, 0, 0), beyond ±1e30 (raylife's bound on a "
        "scene's size)"},
       {"smooth not a boolean", "", "",
        R"({ "material": "white", "smooth": 1, "vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 2]] })",
        "/meshes/0/smooth: expected true or false"},
   };
-  // A file's vertices are read as float (at most 3.4e38), so only a transform takes one past the bound.
+  // A file's vertices are read as float (up to 3.4e38): one may lie beyond the bound itself, and a transform may
+  // bring it in or take another out; each message blames what did it.
   write(dir / "far.obj", "v 0 0 0\nv 1e38 0 0\nv 0 1 0\nf 1 2 3\n");
-  CHECK(failure(sceneWith(R"({ "file": "far.obj", "material": "white", "transform": { "translate": [0, 0, 0] } })"),
-                (dir / "scene.json").string()) == "");
-  CHECK(failure(sceneWith(R"({ "file": "far.obj", "material": "white", "transform": { "scale": 1e13 } })"),
-                (dir / "scene.json").string())
-            .find("/meshes/0/transform: the transform takes a vertex to (1e+51, 0, 0), beyond ±1e50 (raylife's "
-                  "bound on a scene's size)") != std::string::npos);
+  CHECK(failure(sceneWith(R"({ "file": "far.obj", "material": "white" })"), (dir / "scene.json").string())
+            .find(std::string("/meshes/0/file: a vertex of the file lies at (1e+38, 0, 0), beyond ±") +
+                  kMaxSceneExtentText + " (raylife's bound on a scene's size); a transform's scale can bring it in") !=
+        std::string::npos);
+  if (sizeof(Real) == sizeof(double)) { // (in float, scaled into ±1e8 the triangle has no area left)
+    CHECK(failure(sceneWith(R"({ "file": "far.obj", "material": "white", "transform": { "scale": 1e-9 } })"),
+                  (dir / "scene.json").string()) == "");
+    CHECK(failure(sceneWith(R"({ "file": "far.obj", "material": "white", "transform": { "scale": 1e13 } })"),
+                  (dir / "scene.json").string())
+              .find("/meshes/0/transform: the transform takes a vertex to (1e+51, 0, 0), beyond ±1e30 (raylife's "
+                    "bound on a scene's size)") != std::string::npos);
+  }
   fs::create_directories(dir / "folder.obj");
   for (const Bad& c : cases) {
     std::string entry = c.entry;
