@@ -543,6 +543,15 @@ void readCamera(const Reader& r, const Json& j, const Path& path, CameraSpec& ca
       r.fail(path / "focus", std::string("the focus distance must be greater than 0 and at most ") +
                                  kMaxSceneExtentText + ", got " + j["focus"].dump());
   }
+  // (The largest coordinate first, so that the distance neither underflows nor overflows on the way.)
+  const Vec3 view = cam.eye - cam.focal;
+  const double largest = std::max({std::abs(double(view.x)), std::abs(double(view.y)), std::abs(double(view.z))});
+  if (largest > 0 && largest * glm::length(glm::dvec3(view) / largest) < double(Real(kMinSceneLength))) {
+    char apart[32];
+    std::snprintf(apart, sizeof apart, "%.6g", largest * glm::length(glm::dvec3(view) / largest));
+    r.fail(path / "focal", std::string("eye and focal are only ") + apart + " apart, less than raylife's smallest "
+                           "length (" + kMinSceneLengthText + ")");
+  }
   auto basis = makeCameraBasis(cam.eye, cam.focal, cam.up);
   if (auto* error = std::get_if<BasisError>(&basis))
     r.fail(path / (cam.eye == cam.focal ? "focal" : "up"), error->message); // blame the vector at fault
@@ -949,7 +958,9 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
     std::array<std::uint32_t, 3> tri = data.triangles[k];
     if (transform.mirrors())
       std::swap(tri[1], tri[2]);
-    if (!(triangleDoubleArea(data.positions[tri[0]], data.positions[tri[1]], data.positions[tri[2]]) > 0)) {
+    // (Below kMinSceneLength² what the tests square and multiply leaves the normal numbers: degenerate too.)
+    if (!(triangleDoubleArea(data.positions[tri[0]], data.positions[tri[1]], data.positions[tri[2]]) >=
+          Real(kMinSceneLength * kMinSceneLength))) {
       ++degenerate;
       continue;
     }
@@ -959,12 +970,14 @@ void readMesh(const Reader& r, const Json& j, const Path& path, MaterialOf&& mat
   }
   if (kept.empty())
     r.fail(path, "every one of its " + std::to_string(data.triangles.size()) +
-                     " triangles is degenerate (zero area): nothing to render");
+                     " triangles is degenerate (no area, or too little: " + kMinSceneLengthText +
+                     " is raylife's smallest length): nothing to render");
   if (degenerate > 0)
     scene.warnings.push_back(printable(r.where(path) + ": " + std::to_string(degenerate) +
-                                       (degenerate == 1 ? " degenerate (zero-area) triangle" :
-                                                          " degenerate (zero-area) triangles") +
-                                       " dropped (of " + std::to_string(data.triangles.size()) + ")"));
+                                       (degenerate == 1 ? " degenerate triangle" : " degenerate triangles") +
+                                       " (area 0, or below the square of raylife's smallest length, " +
+                                       kMinSceneLengthText + ") dropped (of " + std::to_string(data.triangles.size()) +
+                                       ")"));
 
   // Smooth shading: the file's normals, transformed, if every one has a direction; else computed from the faces.
   if (mesh.smooth) {
@@ -1402,6 +1415,9 @@ Scene readScene(std::string_view text, const std::string& fileName, bool sizeGiv
       s.radius = r.number(r.required(js, p, "radius"), p / "radius");
       if (!(s.radius > 0))
         r.fail(p / "radius", "the radius must be greater than 0, got " + js["radius"].dump());
+      if (s.radius < Real(kMinSceneLength))
+        r.fail(p / "radius", std::string("the radius must be at least ") + kMinSceneLengthText +
+                                 " (raylife's smallest length), got " + js["radius"].dump());
       if (!withinSceneExtent(s.radius))
         r.fail(p / "radius", std::string("the radius must be at most ") + kMaxSceneExtentText +
                                  " (raylife's bound on a scene's size), got " + js["radius"].dump());

@@ -338,7 +338,9 @@ TEST_CASE("degenerate triangles are dropped with a count in a warning, and the r
       "s.json");
   CHECK(scene.triangles.size() == 1);
   REQUIRE(scene.warnings.size() == 2); // the dropped triangles, and the unused material "lamp"
-  CHECK(scene.warnings[0].find("2 degenerate (zero-area) triangles dropped (of 3)") != std::string::npos);
+  CHECK(scene.warnings[0].find(std::string("2 degenerate triangles (area 0, or below the square of raylife's "
+                                           "smallest length, ") +
+                               kMinSceneLengthText + ") dropped (of 3)") != std::string::npos);
   CHECK(scene.warnings[0].find("/meshes/0") != std::string::npos);
 }
 

@@ -4,6 +4,9 @@
 
 #include <catch2/catch.hpp>
 
+#include <cstdio>
+#include <string>
+
 using namespace raylife;
 
 namespace {
@@ -24,6 +27,16 @@ const char* kScene = R"({
                { "center": [-2, 1, 0], "radius": 0.5, "material": "satin" } ],
   "lights": [ { "type": "point", "position": [5, 8, 5], "intensity": [1, 2, 3] } ]
 })";
+// What parseScene says of `text` as file `name`: its SceneError's message, or "(no error)".
+std::string loadError(const std::string& text, const std::string& name)
+{
+  try {
+    parseScene(text, name);
+  } catch (const SceneError& e) {
+    return std::string(e.what());
+  }
+  return std::string("(no error)");
+}
 } // namespace
 
 TEST_CASE("the design's example scene loads with every key read")
@@ -59,14 +72,7 @@ TEST_CASE("a chapter says what of the scene it ignores")
 
 TEST_CASE("scene faults name the file - the line and column - the JSON path and the fault")
 {
-  auto message = [](const std::string& text) {
-    try {
-      parseScene(text, "bad.json");
-    } catch (const SceneError& e) {
-      return std::string(e.what());
-    }
-    return std::string("(no error)");
-  };
+  auto message = [](const std::string& text) { return loadError(text, "bad.json"); };
   const std::string camera = R"("camera": { "eye": [0, 0, 5], "focal": [0, 0, 0] })";
   const std::string mats = R"("materials": { "m": { "type": "diffuse" } })";
   CHECK(message("{ \"camera\": ") .find("bad.json:1:") == 0);
@@ -116,4 +122,43 @@ TEST_CASE("the command line: defaults - every option and faults")
   CHECK_THROWS_WITH(parse({"--spp", "4", "--time", "1"}), Catch::Contains("not both"));
   CHECK_THROWS_WITH(parse({"a.json", "b.json"}), Catch::Contains("more than one scene"));
   CHECK_THROWS_WITH(parse({"-o", "a.png", "-o", "b.pfm", "-o", "c.png"}), Catch::Contains("two .png files"));
+}
+
+TEST_CASE("the smallest length: a radius and the eye's distance to the focal point below it are refused, a triangle "
+          "below it is dropped")
+{
+  auto message = [](const std::string& text) { return loadError(text, "small.json"); };
+  // A tenth of the build's smallest length, the length itself and twice it, as JSON numbers.
+  char below[32], at[32], twice[32];
+  std::snprintf(below, sizeof below, "%.6g", kMinSceneLength / 10);
+  std::snprintf(at, sizeof at, "%.6g", kMinSceneLength);
+  std::snprintf(twice, sizeof twice, "%.6g", 2 * kMinSceneLength);
+  const std::string camera = R"("camera": { "eye": [0, 0, 5], "focal": [0, 0, 0] })";
+  const std::string mats = R"("materials": { "m": { "type": "diffuse" } })";
+  auto sphere = [&](const char* radius) {
+    return "{" + camera + ", " + mats + R"(, "spheres": [ { "center": [0, 0, 0], "radius": )" + radius +
+           R"(, "material": "m" } ] })";
+  };
+  CHECK(message(sphere(at)) == "(no error)");
+  CHECK_THAT(message(sphere(below)), Catch::Contains(std::string("/spheres/0/radius: the radius must be at least ") +
+                                                     kMinSceneLengthText + " (raylife's smallest length)"));
+  auto eyeAt = [&](const char* z) {
+    return std::string(R"({ "camera": { "eye": [0, 0, )") + z + R"(], "focal": [0, 0, 0] }, )" + mats +
+           R"(, "spheres": [ { "center": [0, 0, -5], "radius": 1, "material": "m" } ] })";
+  };
+  CHECK(message(eyeAt(at)) == "(no error)");
+  CHECK_THAT(message(eyeAt(below)), Catch::Contains(std::string("/camera/focal: eye and focal are only ") + below +
+                                                    " apart, less than raylife's smallest length"));
+  CHECK_THAT(message(eyeAt("0")), Catch::Contains("/camera/focal: eye and focal are the same point"));
+  // Triangles: twice the area against the square of the smallest length (right triangles with legs `twice` and
+  // `below`: 4 and 1/100 times it); the big one keeps the scene from being empty.
+  auto triangles = [&](const char* leg) {
+    return "{" + camera + ", " + mats + R"(, "meshes": [ { "material": "m", "vertices": [[0,0,0],[)" + leg +
+           R"(,0,0],[0,)" + leg + R"(,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 2], [0, 3, 4]] } ] })";
+  };
+  CHECK(parseScene(triangles(twice), "small.json").triangles.size() == 2);
+  const Scene dropped = parseScene(triangles(below), "small.json");
+  CHECK(dropped.triangles.size() == 1);
+  REQUIRE_FALSE(dropped.warnings.empty());
+  CHECK_THAT(dropped.warnings[0], Catch::Contains("1 degenerate triangle (area 0, or below the square of"));
 }
