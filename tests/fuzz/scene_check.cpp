@@ -63,7 +63,7 @@ std::string checkMeshes(const Scene& scene)
           return "a smooth mesh's vertex normal is not unit";
       }
       const auto [p0, p1, p2] = scene.triangleVertices(t);
-      if (!(triangleDoubleArea(p0, p1, p2) > 0))
+      if (!(triangleDoubleArea(p0, p1, p2) >= Real(kMinSceneLength * kMinSceneLength)))
         return "a degenerate triangle was kept";
     }
   }
@@ -291,7 +291,7 @@ std::string checkSceneText(std::string_view text)
   if (std::string problem = checkMeshes(scene); !problem.empty())
     return problem;
   for (const Sphere& s : scene.spheres) {
-    if (!withinSceneExtent(s.center) || !(s.radius > 0) || !withinSceneExtent(s.radius))
+    if (!withinSceneExtent(s.center) || !(s.radius >= Real(kMinSceneLength)) || !withinSceneExtent(s.radius))
       return "a sphere with a bad centre or radius was accepted";
     if (s.material < 0 || std::size_t(s.material) >= scene.materials.size())
       return "a sphere's material index is out of range";
