@@ -1,6 +1,9 @@
 #include "scene/scene.h"
 
+#include "geometry/triangle.h"
+
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 
 namespace raylife {
@@ -316,6 +319,28 @@ std::string beyondSceneExtent(const Scene& scene, double bound)
   for (std::size_t i = 0; i < scene.lights.size(); ++i)
     if (!withinSceneExtent(scene.lights[i].position, bound))
       return "point light " + std::to_string(i) + "'s position, " + show(scene.lights[i].position);
+  return {};
+}
+
+std::string belowSceneLength(const Scene& scene, double smallest)
+{
+  auto show = [](double v) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.6g", v);
+    return std::string(text);
+  };
+  const double distance = double(glm::length(scene.camera.eye - scene.camera.focal));
+  if (distance < smallest)
+    return "the distance from the camera's eye to its focal point, " + show(distance);
+  for (std::size_t i = 0; i < scene.spheres.size(); ++i)
+    if (double(scene.spheres[i].radius) < smallest)
+      return "sphere " + std::to_string(i) + "'s radius, " + show(double(scene.spheres[i].radius));
+  for (std::size_t i = 0; i < scene.triangles.size(); ++i) {
+    const auto [p0, p1, p2] = scene.triangleVertices(i);
+    const double size = std::sqrt(double(triangleDoubleArea(p0, p1, p2)));
+    if (size < smallest)
+      return "triangle " + std::to_string(i) + "'s size (the square root of twice its area), " + show(size);
+  }
   return {};
 }
 

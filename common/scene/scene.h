@@ -76,8 +76,10 @@ inline constexpr const char* kMaxSceneExtentText = sizeof(Real) == sizeof(float)
 /// leaves the numbers' normal range and rounding takes over: smallpt's room scaled down to 10⁻¹⁶⁰ rendered a
 /// different image in double (mean +2 %, with 30 % more rays), and to 10⁻²² in float (−13 %), without a word; a
 /// triangle's area squares a squared length, which in float underflows below about 10⁻¹⁰. Within the two bounds
-/// every chapter renders a scene the same at any size (stability case 14).
-inline constexpr double kMinSceneLength = sizeof(Real) == sizeof(float) ? 1e-8 : 1e-30;
+/// every chapter renders a scene the same at any size (stability case 14). kMinSceneLengthFloat is the float
+/// build's, which chapter 17's float kernels need in the double build too.
+inline constexpr double kMinSceneLengthFloat = 1e-8;
+inline constexpr double kMinSceneLength = sizeof(Real) == sizeof(float) ? kMinSceneLengthFloat : 1e-30;
 /// kMinSceneLength as the loader's messages write it.
 inline constexpr const char* kMinSceneLengthText = sizeof(Real) == sizeof(float) ? "1e-8" : "1e-30";
 
@@ -319,6 +321,12 @@ struct Scene {
 /// radius, each mesh vertex and each point light's position (the lens and the motion are not: for chapter 17, whose
 /// float kernels use neither, against kMaxSceneExtentFloat, where the loader has checked kMaxSceneExtent).
 std::string beyondSceneExtent(const Scene& scene, double bound);
+
+/// The first of `scene`'s lengths below `smallest`, as a phrase ("sphere 6's radius, 1.65e-24"), or an empty
+/// string when none is: each sphere's radius, the distance from the camera's eye to its focal point, and each
+/// triangle's size (the square root of twice its area). For chapter 17, against kMinSceneLengthFloat, where the
+/// loader has checked kMinSceneLength.
+std::string belowSceneLength(const Scene& scene, double smallest);
 
 /// A fault in a scene file. what() is the whole message: "FILE:LINE:COLUMN: /json/path: what is wrong".
 class SceneError : public std::runtime_error {

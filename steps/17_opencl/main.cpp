@@ -62,6 +62,10 @@ struct DeviceScene {
     if (const std::string beyond = beyondSceneExtent(scene, kMaxSceneExtentFloat); !beyond.empty())
       throw ChapterError(scene.fileName + ": " + beyond + ", lies beyond ±1e8, the largest scene the float kernels "
                          "can square (the float build's bound; scale the scene down)");
+    // And below kMinSceneLengthFloat what they square leaves float's normal numbers.
+    if (const std::string below = belowSceneLength(scene, kMinSceneLengthFloat); !below.empty())
+      throw ChapterError(scene.fileName + ": " + below + ", lies below 1e-8, the smallest length the float kernels "
+                         "can square (the float build's bound; scale the scene up)");
     std::vector<cl_float4> sphereData, vertexData, normalData;
     std::vector<cl_int> sphereMaterial;
     for (const Sphere& s : scene.spheres) {

@@ -181,11 +181,12 @@ TEST_CASE("opencl: a glass whose index the float kernels cannot square is refuse
   std::filesystem::remove(stem + ".json");
 }
 
-TEST_CASE("opencl: a scene larger than the float kernels can square is refused in one line, naming the place")
+TEST_CASE("opencl: a scene larger or smaller than the float kernels can square is refused in one line, naming the "
+          "place")
 {
-  // The double build's loader takes a scene up to 1e30 across; the kernels square lengths in float. smallpt's room
-  // with its walls' radius at 1e20 rendered a bright, wrong image, with no bad sample to show it. At the float build's
-  // bound, 1e8, it renders as at its own size.
+  // The double build's loader takes a scene from 1e-30 to 1e30; the kernels square lengths in float. smallpt's room
+  // with its walls' radius at 1e20 rendered a bright, wrong image, and scaled down to 1e-22 a dim one, with no bad
+  // sample to show it. At the float build's bounds, 1e8 and 1e-8, it renders as at its own size.
   const std::string stem = "/tmp/raylife_opencl_size_" + std::to_string(::getpid());
   const nlohmann::json scene = nlohmann::json::parse(readText(kScenes + "/smallpt.json"));
   REQUIRE(largestMagnitude(scene) == 100001); // the red wall's centre
@@ -216,6 +217,21 @@ TEST_CASE("opencl: a scene larger than the float kernels can square is refused i
   CHECK(beyondMessage.find(stem + ".json: sphere 0's centre, (1.00001e+10, 4.08e+06, 8.16e+06), lies beyond ±1e8") !=
         std::string::npos);
   CHECK(std::count(beyondMessage.begin(), beyondMessage.end(), '\n') == 1);
+  CHECK_FALSE(std::filesystem::exists(stem + ".pfm"));
+  // Down: the eye is 1.003 from its focal point, smallpt's smallest length.
+  const nlohmann::json small = scaledScene(scene, 1e-8);
+  REQUIRE(smallestLength(small) >= kMinSceneLengthFloat);
+  REQUIRE(smallestLength(small) < 1.01 * kMinSceneLengthFloat);
+  const auto [smallStatus, smallMessage] = render(small);
+  INFO(smallMessage);
+  REQUIRE(smallStatus == 0);
+  CHECK(std::abs(mean() - own) <= 0.1 * own);
+  const auto [belowStatus, belowMessage] = render(scaledScene(scene, 1e-10));
+  INFO(belowMessage);
+  CHECK(belowStatus == 1);
+  CHECK(belowMessage.find(stem + ".json: the distance from the camera's eye to its focal point, 1.00311e-10, lies "
+                                 "below 1e-8") != std::string::npos);
+  CHECK(std::count(belowMessage.begin(), belowMessage.end(), '\n') == 1);
   CHECK_FALSE(std::filesystem::exists(stem + ".pfm"));
   std::filesystem::remove(stem + ".json");
 }
