@@ -70,15 +70,16 @@ inline constexpr double kMaxSceneExtent = sizeof(Real) == sizeof(float) ? kMaxSc
 /// kMaxSceneExtent as the loader's messages write it.
 inline constexpr const char* kMaxSceneExtentText = sizeof(Real) == sizeof(float) ? "1e8" : "1e30";
 
+/// The float build's kMinSceneLength, which chapter 17's float kernels need in the double build too.
+inline constexpr double kMinSceneLengthFloat = 1e-8;
+
 /// The smallest length a scene may have, in scene units: a sphere's radius, the distance from the camera's eye to
 /// its focal point, and the size of a triangle (the square root of twice its area: a triangle below it is dropped as
 /// degenerate). 10⁻³⁰ in double and 10⁻⁸ in float, kMaxSceneExtent's mirror. Below it what the renderer squares
 /// leaves the numbers' normal range and rounding takes over: smallpt's room scaled down to 10⁻¹⁶⁰ rendered a
 /// different image in double (mean +2 %, with 30 % more rays), and to 10⁻²² in float (−13 %), without a word; a
 /// triangle's area squares a squared length, which in float underflows below about 10⁻¹⁰. Within the two bounds
-/// every chapter renders a scene the same at any size (stability case 14). kMinSceneLengthFloat is the float
-/// build's, which chapter 17's float kernels need in the double build too.
-inline constexpr double kMinSceneLengthFloat = 1e-8;
+/// every chapter renders a scene the same at any size (stability case 14).
 inline constexpr double kMinSceneLength = sizeof(Real) == sizeof(float) ? kMinSceneLengthFloat : 1e-30;
 /// kMinSceneLength as the loader's messages write it.
 inline constexpr const char* kMinSceneLengthText = sizeof(Real) == sizeof(float) ? "1e-8" : "1e-30";
