@@ -170,7 +170,8 @@ TEST_CASE("every fault in a scene file is reported once with its place and nothi
       {"a radius beyond the bound on a scene's size", withFault(R"("radius": 1,)", R"("radius": 1e40,)"),
        "scene.json:11:38: /spheres/1/radius: the radius must be at most 1e30 (raylife's bound on a scene's size), "
        "got 1e+40"},
-      {"a light beyond the bound on a scene's size", withFault(R"("position": [5, 8, 5])", R"("position": [5, 8, 1e31])"),
+      {"a light beyond the bound on a scene's size",
+       withFault(R"("position": [5, 8, 5])", R"("position": [5, 8, 1e31])"),
        "scene.json:13:53: /lights/0/position/2: a coordinate must lie within ±1e30 (raylife's bound on a scene's "
        "size), got 1e+31"},
       {"a metal roughness above 1", withFault(R"("type": "diffuse", "color": [0.8, 0.2, 0.2])",

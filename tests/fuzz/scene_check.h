@@ -16,9 +16,9 @@ namespace raylife::fuzz {
 /// folder) and checks what comes back. Text after a line "#density" is written to the file "density.json" beside
 /// it, which the scene's media may name (without that line there is no such file). A SceneError must be one
 /// printable line that starts with the scene file's path and ":"; a scene that loads must satisfy every invariant the
-/// loader promises (at least one sphere or triangle, radii and triangles no smaller than kMinSceneLength, colours ≥ 0 and finite, material indices in range,
-/// mesh indices in range, geometry and the index of refraction within kMaxSceneExtent and kMaxIor, no degenerate
-/// triangle, a valid camera, media with coefficients in range and density grids within the format's bounds, at most
+/// loader promises (at least one sphere or triangle, radii and triangles no smaller than kMinSceneLength, colours
+/// ≥ 0 and finite, material indices in range, mesh indices in range, geometry and the index of refraction within
+/// kMaxSceneExtent and kMaxIor, a valid camera, media with coefficients in range and density grids within the format's bounds, at most
 /// 1e9 tentative collisions across), and delta and ratio tracking through a density grid that is cheap to cross
 /// must end with finite weights and a transmittance in [0, 1].
 /// Any other exception escapes: that is a bug, and the caller reports it.

@@ -4,8 +4,9 @@
 // scaled up by a power of ten so that their largest coordinate or radius lies within a factor of ten of
 // kMaxSceneExtent (10^30 in double, 10^8 in float), and down so that their smallest length (a radius, a triangle's
 // size, the eye's distance to the focal point) lies within a factor of ten of kMinSceneLength (10^-30 and 10^-8),
-// rendered by chapters 2, 5 to 11 and 13 to 16 (those that light them) at 40×30, 32 spp, and compared with the same chapter's image
-// of the scene at its own size; then scaled 100 times further each way, which the loader must refuse.
+// rendered by chapters 2, 5 to 11 and 13 to 16 (those that light them) at 40×30, 32 spp, and compared with the same
+// chapter's image of the scene at its own size; then scaled 100 times further each way, which the loader must
+// refuse.
 // Why it can fail: the renderer squares lengths (a sphere's r² and |o − c|²), a triangle's area squares a squared
 // length, and the watertight test's scaled distance is a cube of the size. Past float's range (3.4e38) a lamp's area
 // was infinite (the Cornell box at 5.6e10 gave bad samples in chapters 7, 8, 11 and 13 to 16), and smallpt's walls
