@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Fuzzes the scene loader, the mesh files, the texture images (stb_image's formats), the float images (OpenEXR and
 # PFM) and the partial films (raylife_merge's .film files) with libFuzzer for SECONDS in all (default 60): a fifth
-# each, or all of it for the scene loader when RAYLIFE_FUZZ_MESH=0. Single process.
+# each, or all of it for the scene loader when RAYLIFE_FUZZ_MESH=0. One fuzzer at a time, or RAYLIFE_FUZZ_JOBS at a
+# time (each still gets its share, so the fuzzing is the same and takes less of the clock: CI runs two on its two
+# cores); each is a single process.
 #   tools/fuzz.sh SECONDS [BUILD_DIR]
 # Builds tests/fuzz/fuzz_scene, fuzz_mesh, fuzz_image, fuzz_float_image and fuzz_film in BUILD_DIR (default
 # build-asan/) configured by the asan preset: clang, -fsanitize=fuzzer-no-link,address,undefined, the same build in
@@ -52,17 +54,45 @@ seeds=("$root/scenes")
 [ -d "$root/scenes/stress" ] && seeds+=("$root/scenes/stress")
 seeds+=("$root/tests/fuzz/regressions")
 
-# fuzzOne WHAT TARGET SECONDS MAX_LEN CORPUS [SEED FOLDERS and libFuzzer options...]: one target's run; a fault
-# sets $status. (The readers that run a library in a child process end it with _exit: LeakSanitizer checks raylife's
-# process only.)
+# fuzzOne WHAT TARGET SECONDS MAX_LEN CORPUS [SEED FOLDERS and libFuzzer options...]: one target's run, started
+# once fewer than $jobs are going, its output printed whole when it ends (fuzzWait). No run starts once one has
+# found a fault. (The readers that run a library in a child process end it with _exit: LeakSanitizer checks
+# raylife's process only.)
+jobs=${RAYLIFE_FUZZ_JOBS:-1}
+if ! [[ "$jobs" =~ ^[1-9][0-9]*$ ]]; then
+  echo "fuzz.sh: RAYLIFE_FUZZ_JOBS must be a whole number of fuzzers at a time, 1 or more (it is '$jobs')" >&2
+  exit 2
+fi
+logs=$(mktemp -d)
+trap 'rm -rf "$logs"' EXIT
 status=0
+running=()        # the runs going, by process id
+declare -A logOf  # each run's output file
+# fuzzWait N: waits until fewer than N runs are going (N = 1: until all have ended), printing each one's output as it
+# ends and taking a fault's exit status into $status. (wait -n -p: bash 5.1 or later.)
+fuzzWait() {
+  while [ "${#running[@]}" -ge "$1" ]; do
+    local pid rc=0 still=() other
+    wait -n -p pid "${running[@]}" || rc=$?
+    cat "${logOf[$pid]}"
+    [ "$rc" -eq 0 ] || status=$rc
+    for other in "${running[@]}"; do [ "$other" = "$pid" ] || still+=("$other"); done
+    running=("${still[@]+"${still[@]}"}")
+  done
+}
 fuzzOne() {
   local what=$1 target=$2 budget=$3 maxLen=$4 corpusDir=$5
   shift 5
+  fuzzWait "$jobs"
+  [ "$status" -eq 0 ] || return 0
   mkdir -p "$corpusDir"
-  echo "fuzz.sh: fuzzing the $what for $budget s; corpus $corpusDir, faults into $crashes/"
-  ASAN_OPTIONS=detect_leaks=1 "$build/bin/$target" "$corpusDir" "$@" -max_total_time="$budget" -timeout=10 \
-    -rss_limit_mb=2048 -max_len="$maxLen" -print_final_stats=1 -artifact_prefix="$crashes/" || status=$?
+  (
+    echo "fuzz.sh: fuzzing the $what for $budget s; corpus $corpusDir, faults into $crashes/"
+    ASAN_OPTIONS=detect_leaks=1 exec "$build/bin/$target" "$corpusDir" "$@" -max_total_time="$budget" -timeout=10 \
+      -rss_limit_mb=2048 -max_len="$maxLen" -print_final_stats=1 -artifact_prefix="$crashes/"
+  ) > "$logs/$target.log" 2>&1 &
+  running+=("$!")
+  logOf[$!]="$logs/$target.log"
 }
 
 fuzzOne "scene loader" fuzz_scene "$sceneSeconds" 16384 "$corpus" "${seeds[@]}" -dict="$root/tests/fuzz/scene.dict"
@@ -105,6 +135,7 @@ if [ "$status" -eq 0 ] && [ "$meshOn" = 1 ]; then
   # (a time budget) and 9.
   fuzzOne "partial films" fuzz_film "$filmSeconds" 16384 "$build/corpus-film" "$root/tests/fuzz/film_regressions"
 fi
+fuzzWait 1
 if [ "$status" -ne 0 ]; then
   echo "fuzz.sh: the fuzzer found a fault (status $status); inputs in $crashes/:" >&2
   ls -l "$crashes" >&2
