@@ -55,7 +55,7 @@ seeds=("$root/scenes")
 seeds+=("$root/tests/fuzz/regressions")
 
 # fuzzOne WHAT TARGET SECONDS MAX_LEN CORPUS [SEED FOLDERS and libFuzzer options...]: one target's run, started
-# once fewer than $jobs are going, its output printed whole when it ends (fuzzWait). No run starts once one has
+# once fewer than $jobs are going; with several at a time, its output is printed whole when it ends (fuzzWait). No run starts once one has
 # found a fault. (The readers that run a library in a child process end it with _exit: LeakSanitizer checks
 # raylife's process only.)
 jobs=${RAYLIFE_FUZZ_JOBS:-1}
@@ -64,9 +64,11 @@ if ! [[ "$jobs" =~ ^[1-9][0-9]*$ ]]; then
   exit 2
 fi
 logs=$(mktemp -d)
-trap 'rm -rf "$logs"' EXIT
 status=0
 running=()        # the runs going, by process id
+# (A run is a background process, which ignores Ctrl-C: stopped or failing, this script stops the runs it leaves.)
+trap 'kill "${running[@]}" 2>/dev/null || true; rm -rf "$logs"' EXIT
+trap 'exit 130' INT TERM
 declare -A logOf  # each run's output file
 # fuzzWait N: waits until fewer than N runs are going (N = 1: until all have ended), printing each one's output as it
 # ends and taking a fault's exit status into $status. (wait -n -p: bash 5.1 or later.)
@@ -74,7 +76,7 @@ fuzzWait() {
   while [ "${#running[@]}" -ge "$1" ]; do
     local pid rc=0 still=() other
     wait -n -p pid "${running[@]}" || rc=$?
-    cat "${logOf[$pid]}"
+    [ -z "${logOf[$pid]}" ] || cat "${logOf[$pid]}"
     [ "$rc" -eq 0 ] || status=$rc
     for other in "${running[@]}"; do [ "$other" = "$pid" ] || still+=("$other"); done
     running=("${still[@]+"${still[@]}"}")
@@ -86,13 +88,17 @@ fuzzOne() {
   fuzzWait "$jobs"
   [ "$status" -eq 0 ] || return 0
   mkdir -p "$corpusDir"
+  # (One at a time, its output goes straight out as it comes.)
+  local log=""
+  [ "$jobs" = 1 ] || log="$logs/$target.log"
   (
+    [ -z "$log" ] || exec > "$log" 2>&1
     echo "fuzz.sh: fuzzing the $what for $budget s; corpus $corpusDir, faults into $crashes/"
     ASAN_OPTIONS=detect_leaks=1 exec "$build/bin/$target" "$corpusDir" "$@" -max_total_time="$budget" -timeout=10 \
       -rss_limit_mb=2048 -max_len="$maxLen" -print_final_stats=1 -artifact_prefix="$crashes/"
-  ) > "$logs/$target.log" 2>&1 &
+  ) &
   running+=("$!")
-  logOf[$!]="$logs/$target.log"
+  logOf[$!]="$log"
 }
 
 fuzzOne "scene loader" fuzz_scene "$sceneSeconds" 16384 "$corpus" "${seeds[@]}" -dict="$root/tests/fuzz/scene.dict"
