@@ -55,9 +55,9 @@ seeds=("$root/scenes")
 seeds+=("$root/tests/fuzz/regressions")
 
 # fuzzOne WHAT TARGET SECONDS MAX_LEN CORPUS [SEED FOLDERS and libFuzzer options...]: one target's run, started
-# once fewer than $jobs are going; with several at a time, its output is printed whole when it ends (fuzzWait). No run starts once one has
-# found a fault. (The readers that run a library in a child process end it with _exit: LeakSanitizer checks
-# raylife's process only.)
+# once fewer than $jobs are going; with several at a time, its output is printed whole when it ends (fuzzWait). No
+# run starts once one has found a fault. (The readers that run a library in a child process end it with _exit:
+# LeakSanitizer checks raylife's process only.)
 jobs=${RAYLIFE_FUZZ_JOBS:-1}
 if ! [[ "$jobs" =~ ^[1-9][0-9]*$ ]]; then
   echo "fuzz.sh: RAYLIFE_FUZZ_JOBS must be a whole number of fuzzers at a time, 1 or more (it is '$jobs')" >&2
