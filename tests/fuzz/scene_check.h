@@ -18,9 +18,9 @@ namespace raylife::fuzz {
 /// printable line that starts with the scene file's path and ":"; a scene that loads must satisfy every invariant the
 /// loader promises (at least one sphere or triangle, radii and triangles no smaller than kMinSceneLength, colours
 /// ≥ 0 and finite, material indices in range, mesh indices in range, geometry and the index of refraction within
-/// kMaxSceneExtent and kMaxIor, a valid camera, media with coefficients in range and density grids within the format's bounds, at most
-/// 1e9 tentative collisions across), and delta and ratio tracking through a density grid that is cheap to cross
-/// must end with finite weights and a transmittance in [0, 1].
+/// kMaxSceneExtent and kMaxIor, a valid camera, media with coefficients in range and density grids within the
+/// format's bounds, at most 1e9 tentative collisions across), and delta and ratio tracking through a density grid
+/// that is cheap to cross must end with finite weights and a transmittance in [0, 1].
 /// Any other exception escapes: that is a bug, and the caller reports it.
 /// @return "" when all is well, otherwise what was wrong.
 std::string checkSceneText(std::string_view text);
