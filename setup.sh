@@ -12,7 +12,7 @@
 set -euo pipefail
 
 packages=(
-  g++ cmake make                 # compiler and build
+  g++ cmake ninja-build make     # compiler and build (the presets build with Ninja)
   libglm-dev                     # vector maths
   libstb-dev                     # PNG reading and writing
   nlohmann-json3-dev             # scene files
@@ -33,6 +33,17 @@ for arg in "$@"; do
     --opencl) packages+=(pocl-opencl-icd ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers clinfo) ;;
     *) echo "setup.sh: unknown option '$arg' (known: --fuzz, --browser, --bench, --mpi, --embree, --opencl)" >&2; exit 2 ;;
   esac
+done
+
+# The presets build with Ninja. A preset's build folder that an older raylife configured for make cannot be configured
+# again for Ninja: its cache goes, and its next build compiles everything again.
+cd "$(dirname "$0")"
+for dir in $(sed -n 's|.*"binaryDir": "${sourceDir}/\(.*\)".*|\1|p' CMakePresets.json | sort -u); do
+  if grep -qx 'CMAKE_GENERATOR:INTERNAL=Unix Makefiles' "$dir/CMakeCache.txt" 2>/dev/null; then
+    echo "setup.sh: $dir/ was configured for make, and the presets now build with Ninja: removing its CMakeCache.txt" \
+      "and CMakeFiles/ (its next build compiles everything again)"
+    rm -rf "$dir/CMakeCache.txt" "$dir/CMakeFiles" "$dir/Makefile"
+  fi
 done
 
 missing=()
