@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages raylife needs, when they are missing.
 # As root it runs apt-get; otherwise it prints the one apt-get line to run and exits 1.
+# First it resets a preset's build folder that an older raylife configured for make (the presets build with Ninja).
 #   ./setup.sh          build, tests and docs
 #   ./setup.sh --fuzz   also clang's libFuzzer runtime (tests/fuzz)
 #   ./setup.sh --browser also Chromium, for the docs screenshot check
