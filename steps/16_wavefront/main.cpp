@@ -325,8 +325,9 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   q.diffuse.clear(), q.other.clear();
   for (std::uint32_t i = 0; i < n; ++i) {
     Color& L = out[paths.slot[i]];
-    if (!q.found[i]) { // the ray left the scene: the background, which only BSDF sampling finds (weight 1)
-      L += paths.beta[i] * scene.background;
+    if (!q.found[i]) { // the ray left the scene: the background or the environment map, found only by BSDF
+      // sampling (weight 1), looked up in the ray's direction as chapter 8 looks it up
+      L += paths.beta[i] * scene.escaped(Vec3(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]));
       continue;
     }
     const Hit& hit = q.hit[i];
@@ -587,9 +588,9 @@ int main(int argc, char** argv)
   /// [chapter]
   const ChapterInfo chapter{.binary = "step16_wavefront",
                             .defaultScene = "smallpt.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
-                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights |
-                                    kUsesMetal | kUsesLens | kUsesMotion,
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground |
+                                    kUsesEnvironment | kUsesEmission | kUsesMirror | kUsesGlass | kUsesGlossy |
+                                    kUsesMaxDepth | kSamplesLights | kUsesMetal | kUsesLens | kUsesMotion,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
                             .defaultMaxDepth = -1,

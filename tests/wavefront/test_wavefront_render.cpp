@@ -44,10 +44,11 @@ std::string renderBytes(const std::string& binary, const std::string& scene, con
 TEST_CASE("wavefront: chapter 16 renders chapter 8's image bit for bit on the scenes chapter 8 renders")
 {
   // Flat lists of spheres (the stream kernels), BVHs over spheres and over triangles (one ray at a time), point
-  // lights, glossy and metal lobes, glass, a lamp hidden in a recess (the light guide at work), the lens and motion.
+  // lights, glossy and metal lobes, glass, a lamp hidden in a recess (the light guide at work), the lens and motion,
+  // and a sky from an environment map (turned and scaled), which chapter 8 looks up where a ray leaves the scene.
   for (const char* scene : {"cornell.json", "smallpt.json", "mis.json", "random_spheres.json", "cornell_original.json",
                             "meshes.json", "spheres.json", "lamp_recess.json", "cornell_glossy.json",
-                            "distributed.json", "caustics.json"}) {
+                            "distributed.json", "caustics.json", "sun_sky.json"}) {
     INFO(scene);
     const std::string args = "--width 40 --height 30 --spp 6 --seed 3";
     CHECK(renderBytes(RAYLIFE_STEP16, kScenes + "/" + scene, args, "16") ==
