@@ -79,6 +79,8 @@ public:
   Color meanRadiance() const { return meanRadiance_; }
   /// The map's scale factor.
   Real scale() const { return scale_; }
+  /// The map's turn about +y: the sine and cosine of its `rotate` angle (uvOf turns a direction back by it).
+  SinCos<Real> rotation() const { return rotation_; }
 
   /// (u, v) of unit world direction `d`, rotation applied (the contract's u and v, each in [0, 1]).
   Vec2 uvOf(const Vec3& d) const;

@@ -458,6 +458,25 @@ float2 traceRay(const Geometry* g, float3 o, float3 d, float tmax, int anyHit)
   return (float2)(best, as_float(found));
 }
 
+// ---- The environment map (shading/environment.cpp): the texel under a direction ---------------------------------
+
+// What a ray that leaves the scene along unit direction d sees: the background, or, where info's width (x) is not 0,
+// the environment map's texel under d (EnvironmentMap::radiance: d turned back by the map's turn, sine info.z and
+// cosine info.w, then u = ½ + atan2(x, −z)/2π and v = acos(y)/π, nearest texel). `texels`: width × height, row 0
+// first, scale applied.
+float3 escapedRadiance(__global const float4* texels, float4 info, float3 background, float3 d)
+{
+  if (info.x == 0.0f)
+    return background;
+  const float sinTurn = -info.z, cosTurn = info.w; // (turned back: rotateAboutY by the opposite angle)
+  const float3 r = (float3)(d.x * cosTurn + d.z * sinTurn, d.y, -d.x * sinTurn + d.z * cosTurn);
+  const float u = clamp(0.5f + atan2(r.x, -r.z) / (2.0f * kPi), 0.0f, 1.0f);
+  const float v = acos(clamp(r.y, -1.0f, 1.0f)) / kPi;
+  const int w = (int)info.x, h = (int)info.y;
+  const int i = clamp((int)(u * info.x), 0, w - 1), j = clamp((int)(v * info.y), 0, h - 1);
+  return texels[j * w + i].xyz;
+}
+
 // ---- BSDFs (shading/bsdf.cpp), in the local frame where cosθ = w.z ----------------------------------------------
 
 // A material as the host packs it: colour and type, emission and ior, roughness.

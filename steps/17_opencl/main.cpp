@@ -51,9 +51,12 @@ template <class T> cl::Buffer upload(const cl::Context& context, std::vector<T> 
 // materials, and the lights with the cumulative distribution that chooses one by its power.
 struct DeviceScene {
   cl::Buffer spheres, sphereMaterials, vertices, triangles, nodes, leafSpheres, leafTriangles, outside;
-  cl::Buffer materials, lightInfo, lightCdf, lightProbability, pointLights, vertexNormals, smooth;
+  cl::Buffer materials, lightInfo, lightCdf, lightProbability, pointLights, vertexNormals, smooth, environment;
   int sphereCount = 0, triangleCount = 0, nodeCount = 0, outsideCount = 0, lightCount = 0, hasNormals = 0;
   cl_float4 background{};
+  // The environment map's width and height (0: none, and a ray that leaves the scene sees `background`), and the
+  // sine and cosine of its turn; its texels, scale applied, in `environment`, row 0 first.
+  cl_float4 environmentInfo{};
 
   DeviceScene(const cl::Context& context, const Scene& scene, bool sampleLights)
   {
@@ -163,6 +166,17 @@ struct DeviceScene {
     outsideCount = int(outsideData.size());
     hasNormals = normalData.empty() ? 0 : 1;
     background = float4(scene.background);
+    std::vector<cl_float4> texels;
+    if (scene.environment) {
+      const EnvironmentMap& map = *scene.environment;
+      const TexelImage& image = map.image();
+      for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x)
+          texels.push_back(float4(Vec3(image.texel(x, y) * map.scale())));
+      environmentInfo = cl_float4{
+          {float(image.width), float(image.height), float(map.rotation().sin), float(map.rotation().cos)}};
+    }
+    environment = upload(context, texels);
   }
 
   // The scene's arguments, first of every kernel that traces (GEOMETRY_ARGS in stages.cl).
@@ -272,6 +286,8 @@ public:
       shade_.setArg(s++, scene_.smooth);
       shade_.setArg(s++, cl_int(scene_.hasNormals));
       shade_.setArg(s++, scene_.background);
+      shade_.setArg(s++, scene_.environment);
+      shade_.setArg(s++, scene_.environmentInfo);
       shade_.setArg(s++, cl_int(bounce));
       shade_.setArg(s++, cl_int(maxDepth));
       shade_.setArg(s++, cl_int(power_));
@@ -362,9 +378,9 @@ int main(int argc, char** argv)
   /// [chapter]
   const ChapterInfo chapter{.binary = "step17_opencl",
                             .defaultScene = "smallpt.json",
-                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground | kUsesEmission |
-                                    kUsesMirror | kUsesGlass | kUsesGlossy | kUsesMaxDepth | kSamplesLights |
-                                    kUsesMetal,
+                            .uses = kUsesSpheres | kUsesColors | kUsesPointLights | kUsesBackground |
+                                    kUsesEnvironment | kUsesEmission | kUsesMirror | kUsesGlass | kUsesGlossy |
+                                    kUsesMaxDepth | kSamplesLights | kUsesMetal,
                             .pixelSampling = PixelSampling::Jittered,
                             .defaultSpp = 64,
                             .defaultMaxDepth = -1,

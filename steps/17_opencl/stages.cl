@@ -84,7 +84,8 @@ __kernel void extend(GEOMETRY_ARGS, const uint n, __global const float4* origin,
 __kernel void shade(GEOMETRY_ARGS, __global const float4* materials, __global const int4* lightInfo,
                     __global const float* lightCdf, __global const float* lightProbability,
                     __global const float4* pointLights, const int lightCount, __global const float4* vertexNormals,
-                    __global const uchar* smooth, const int hasNormals, const float4 background, const int bounce,
+                    __global const uchar* smooth, const int hasNormals, const float4 background,
+                    __global const float4* environment, const float4 environmentInfo, const int bounce,
                     const int maxDepth, const int power, const uint n,
                     // this round's paths and their hits
                     __global const float4* origin, __global const float4* direction, __global const float4* beta,
@@ -117,10 +118,10 @@ __kernel void shade(GEOMETRY_ARGS, __global const float4* materials, __global co
   r.inc = rng[i].y;
   float3 L = (float3)(0.0f);
 
-  // A ray that leaves the scene sees the background (only BSDF sampling finds it: weight 1).
+  // A ray that leaves the scene sees the background, or the environment map (only BSDF sampling finds it: weight 1).
   const int p = hitPrimitive[i];
   if (p < 0) {
-    radiance[s] += (float4)(b * background.xyz, 0.0f);
+    radiance[s] += (float4)(b * escapedRadiance(environment, environmentInfo, background.xyz, d), 0.0f);
     return;
   }
   // The hit record (Scene::hitAt): a sphere's point re-projected, a triangle's from its barycentrics.

@@ -52,9 +52,10 @@ TEST_CASE("opencl: chapter 17 and chapters 8 and 16 render the same image by the
 {
   // The Cornell box (spheres in a flat list), smallpt's room (walls kept out of the tree), the MIS scene (glossy
   // plates under four lamps), the original Cornell box (triangles and a triangle lamp, through the tree), chapter
-  // 10's model (a mesh file, smooth normals) and the glossy Cornell box.
+  // 10's model (a mesh file, smooth normals), the glossy Cornell box, and a sphere and a quad under an environment
+  // map (a grid of texels, looked up where a ray leaves the scene).
   for (const char* scene : {"cornell.json", "smallpt.json", "mis.json", "cornell_original.json", "meshes.json",
-                            "cornell_glossy.json"}) {
+                            "cornell_glossy.json", "textures_uv.json"}) {
     INFO(scene);
     const std::string size = "--width 48 --height 36 --spp 128 ";
     // smallpt's walls are spheres of radius 10⁵, whose hit points float puts only within about 3 cm: near the rim
