@@ -5,8 +5,9 @@
 //    triangle), which is some 800 float ulps;
 //  - barycentrics and directions: within 1e-4 absolute (unit quantities);
 //  - f and pdf: within 2e-3 relative (a glossy lobe raises a float to a power of up to 800);
-//  - hit or miss, sample or none: the same, except within 1e-4 of the boundary where the answer flips (a ray that
-//    grazes a sphere or crosses a triangle's edge; a random number within 1e-4 of the glass's Fresnel reflectance).
+//  - hit or miss, sample or none, an environment map's texel: the same, except within 1e-4 of the boundary where the
+//    answer flips (a ray that grazes a sphere or crosses a triangle's edge; a random number within 1e-4 of the
+//    glass's Fresnel reflectance; a direction within 1e-4 of a texel's edge).
 // The box test must be conservative: it never culls a box the exact (double) slab test enters.
 #include "opencl_device.h"
 
@@ -15,6 +16,7 @@
 #include "geometry/sphere.h"
 #include "geometry/triangle.h"
 #include "shading/bsdf.h"
+#include "shading/environment.h"
 
 #include <catch2/catch.hpp>
 
@@ -46,6 +48,12 @@ __kernel void testBox(__global const WideNode* nodes, __global const float4* o, 
 {
   const uint i = get_global_id(0);
   entry[i] = boxEntry(&nodes[i], 0, o[i].xyz, 1.0f / d[i].xyz, 0.0f, INFINITY);
+}
+__kernel void testEnvironment(__global const float4* texels, const float4 info, __global const float4* d,
+                              __global float4* out)
+{
+  const uint i = get_global_id(0);
+  out[i] = (float4)(escapedRadiance(texels, info, (float3)(-1.0f), d[i].xyz), 0.0f);
 }
 __kernel void testBsdf(__global const float4* materials, __global const float4* wo, __global const float4* u,
                        __global float4* wi, __global float4* f)
@@ -289,6 +297,62 @@ TEST_CASE("opencl blocks: the box test never culls a box the exact slab test ent
   CHECK(missedClearly > kCount / 10);
   CHECK(culled == 0);
   CHECK(keptWrongly == 0);
+}
+
+TEST_CASE("opencl blocks: the environment lookup on the device finds EnvironmentMap::radiance's texel, the map turned")
+{
+  // A 24 × 12 map whose every texel is its own number, scaled by 2 and turned by 140° (as scenes/sun_sky.json), packed
+  // as chapter 17's host packs it: the texels with the scale applied, and (width, height, sin, cos) of the turn.
+  auto image = std::make_shared<TexelImage>();
+  image->width = 24, image->height = 12;
+  for (int k = 0; k < image->width * image->height; ++k)
+    image->rgb.insert(image->rgb.end(), {float(k), float(k % 7), 1.0f});
+  const EnvironmentMap map(image, 2, 140);
+  std::vector<cl_float4> texels;
+  for (int y = 0; y < image->height; ++y)
+    for (int x = 0; x < image->width; ++x) {
+      const Color c = image->texel(x, y) * map.scale();
+      texels.push_back(f4(float(c.r), float(c.g), float(c.b)));
+    }
+  const cl_float4 info = f4(float(image->width), float(image->height), float(map.rotation().sin),
+                            float(map.rotation().cos));
+  std::mt19937 rng(23);
+  std::vector<cl_float4> d(kCount);
+  for (cl_float4& v : d)
+    v = unitFloat(rng);
+  TestDevice& dev = device();
+  const cl::Buffer bt = dev.input(texels), bd = dev.input(d), out = dev.output(kCount * sizeof(cl_float4));
+  cl::Kernel k(dev.program, "testEnvironment");
+  k.setArg(0, bt), k.setArg(1, info), k.setArg(2, bd), k.setArg(3, out);
+  dev.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(kCount));
+  dev.queue.finish();
+  const std::vector<cl_float4> got = dev.read<cl_float4>(out, kCount);
+  std::size_t same = 0, nearEdge = 0, wrong = 0;
+  for (std::size_t i = 0; i < kCount; ++i) {
+    const Color expected = map.radiance(v3(d[i]));
+    if (double(got[i].s[0]) == double(expected.r) && double(got[i].s[1]) == double(expected.g)) {
+      ++same;
+      continue;
+    }
+    // The device works in float: a direction within 1e-4 of a texel's edge may land in its neighbour.
+    const Vec2 uv = map.uvOf(v3(d[i]));
+    const double u = uv.x * image->width, v = uv.y * image->height;
+    if (std::abs(u - std::round(u)) < 1e-4 * image->width || std::abs(v - std::round(v)) < 1e-4 * image->height)
+      ++nearEdge;
+    else
+      ++wrong;
+  }
+  INFO(same << " directions find the same texel, " << nearEdge << " differ within 1e-4 of an edge, " << wrong
+            << " differ elsewhere");
+  CHECK(wrong == 0);
+  CHECK(double(nearEdge) <= kMaxBoundaryShare * double(kCount));
+  // No map (width 0): the background.
+  const cl_float4 none = f4(0, 0, 0, 1);
+  k.setArg(1, none);
+  dev.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(1));
+  dev.queue.finish();
+  const cl_float4 background = dev.read<cl_float4>(out, 1)[0];
+  CHECK((background.s[0] == -1.0f && background.s[1] == -1.0f && background.s[2] == -1.0f));
 }
 
 TEST_CASE("opencl blocks: BSDF sampling on the device agrees with bsdfSample for every material type")
