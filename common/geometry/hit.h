@@ -51,4 +51,24 @@ inline Ray spawnRayTo(const Hit& hit, const Vec3& target)
 }
 // [spawnRayTo]
 
+/// A ray from one hit point towards another (bidirectional path tracing's connection of two vertices), stopping
+/// just short of it. Both ends are moved off their surfaces by their error bounds, the origin to the side the ray
+/// leaves through, the target to the side the ray comes from (as pbrt-v4's two-point SpawnRayTo), and tmax is that
+/// distance shortened by kShadowRayShorten. The target's surface then cannot block the ray, however large its error
+/// bound against the distance: with the target point itself, a hit on a sphere of radius 10⁵ in the float build is
+/// off by some 10⁻², beyond what the relative shortening of 10⁻⁴ covers across a room of 50 units.
+inline Ray spawnRayTo(const Hit& from, const Hit& to)
+{
+  const Vec3 toTarget = to.point - from.point;
+  if (!(glm::length(toTarget) > 0)) // the same point: an empty ray, which nothing can block
+    return Ray{from.point, from.geometricNormal, 0, 0, from.time};
+  const Vec3 origin = offsetRayOrigin(from.point, from.pointError, from.geometricNormal, toTarget);
+  const Vec3 target = offsetRayOrigin(to.point, to.pointError, to.geometricNormal, origin - to.point);
+  const Vec3 toEnd = target - origin;
+  const Real distance = glm::length(toEnd);
+  if (!(distance > 0))
+    return Ray{origin, from.geometricNormal, 0, 0, from.time};
+  return Ray{origin, toEnd / distance, 0, distance * (1 - kShadowRayShorten), from.time};
+}
+
 } // namespace raylife

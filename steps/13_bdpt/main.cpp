@@ -338,7 +338,7 @@ Color connectVertices(const Context& c, const SubpathState& state, const Hit& hi
   const double wLight = mis(cameraPdfA) * (v.state.dVCM + v.state.dVC * mis(bsdfPdf(ml, woLight, wiLight)));
   const double wCamera = mis(lightPdfA) * (state.dVCM + state.dVC * mis(bsdfPdf(mc, wiCamera, wo)));
   const Real weight = c.strategies.weight(v.s, t, 1 / (1 + wLight + wCamera));
-  if (weight == 0 || c.scene.occluded(spawnRayTo(hit, v.hit.point)))
+  if (weight == 0 || c.scene.occluded(spawnRayTo(hit, v.hit)))
     return Color(0);
   return weight * state.beta * fCamera * fLight * v.state.beta * (cosCamera * cosLight / distance2);
 }

@@ -21,6 +21,7 @@
 
 #include <array>
 #include <cstdio>
+#include <type_traits>
 
 using namespace raylife;
 using namespace raylife::stability;
@@ -129,6 +130,44 @@ TEMPLATE_TEST_CASE("stability 4: rays leaving a sphere never hit it again at t ~
                         << naiveInwardTotal[k]);
     CHECK(naiveOutwardTotal[k] + naiveInwardTotal[k] > 0);
   }
+}
+
+TEST_CASE("stability 4 (chapter 13): a ray between two hit points is blocked by neither end's surface",
+          "[stability][self-hit]")
+{
+  // A floor and a wall meeting at a corner, each a sphere of radius R: 10^5 in float (the Cornell box's walls), 10^13
+  // in double, where each places its points to some 10^-2 units (γ(5)·R). Points on the floor and on the wall,
+  // found by Scene::intersect, are joined through the open corner between them. spawnRayTo(from, to) must reach
+  // every target; stopping short of the bare target point by the relative kShadowRayShorten alone (the one-point
+  // form) leaves the target's own surface in the way for many.
+  const Real R = std::is_same_v<Real, float> ? Real(1e5) : Real(1e13);
+  Scene scene;
+  scene.spheres = {Sphere{Vec3(0, -R, 0), R, 0}, Sphere{Vec3(0, 0, -R), R, 0}};
+  TestRng rng(4242);
+  int pairs = 0, blocked = 0, blockedOnePoint = 0;
+  for (int k = 0; k < 20000; ++k) {
+    const Real fx = Real(rng.uniform(-20, 20));
+    const Real fz = Real(rng.uniform(0.5, 30));
+    const Real wx = Real(rng.uniform(-20, 20));
+    const Real wy = Real(rng.uniform(0.5, 30));
+    const std::optional<Hit> floor = scene.intersect(Ray{Vec3(fx, 10, fz), Vec3(0, -1, 0), 0, kInfinity});
+    const std::optional<Hit> wall = scene.intersect(Ray{Vec3(wx, wy, 10), Vec3(0, 0, -1), 0, kInfinity});
+    REQUIRE(floor);
+    REQUIRE(wall);
+    REQUIRE(floor->primitive == 0);
+    REQUIRE(wall->primitive == 1);
+    ++pairs;
+    blocked += scene.occluded(spawnRayTo(*floor, *wall)) + scene.occluded(spawnRayTo(*wall, *floor));
+    blockedOnePoint +=
+        scene.occluded(spawnRayTo(*floor, wall->point)) + scene.occluded(spawnRayTo(*wall, floor->point));
+  }
+  INFO(pairs << " pairs joined both ways: blocked " << blocked << ", with the one-point form " << blockedOnePoint);
+  printFigure("chapter 13's connections (" + std::string(scalarName<Real>()) + " Real, walls of radius " +
+              (std::is_same_v<Real, float> ? "1e5" : "1e13") + "): " + std::to_string(2 * pairs) +
+              " rays between hit points, blocked " + std::to_string(blocked) + "; with the one-point spawnRayTo " +
+              std::to_string(blockedOnePoint));
+  CHECK(blockedOnePoint > 0); // the far end's offset is what makes the difference: shown
+  CHECK(blocked == 0);
 }
 
 TEST_CASE("stability 4 (issue 2): no self-hits through Scene::intersect and spawnRay and spawnRayTo",
