@@ -442,12 +442,21 @@ std::vector<std::string> distinct(const std::vector<Row>& rows, std::string Row:
 
 } // namespace
 
+std::string mainPrecision(const std::vector<Row>& rows)
+{
+  for (const Row& r : rows)
+    if (r.kind == RowKind::Spp)
+      return r.precision;
+  return "double";
+}
+
 std::vector<SlopeResult> fitSlopes(const std::vector<Row>& rows)
 {
+  const std::string precision = mainPrecision(rows);
   std::vector<SlopeResult> out;
   for (const std::string& scene : distinct(rows, &Row::scene))
     for (const std::string& chapter : distinct(rows, &Row::chapter)) {
-      const std::vector<LadderPoint> points = ladder(rows, scene, chapter, RowKind::Spp, "double");
+      const std::vector<LadderPoint> points = ladder(rows, scene, chapter, RowKind::Spp, precision);
       if (points.size() < 2)
         continue;
       std::vector<double> x, y, yRaw;
@@ -536,6 +545,7 @@ double efficiencyOf(const LadderPoint& p) { return p.seconds > 0 && p.relativeMs
 
 std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& c)
 {
+  const std::string ladderPrecision = mainPrecision(rows); // (the build of --bin's)
   std::ostringstream md;
   md << "# raylife benchmark: run time against error (" << c.mode << " mode)\n\n";
   md << "- Run: " << c.date << "\n- Machine: " << c.machine << "\n- Build: " << c.build << "\n- Conditions: "
@@ -581,13 +591,13 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
       if (r.scene == scene && std::find(chapters.begin(), chapters.end(), r.chapter) == chapters.end())
         chapters.push_back(r.chapter);
     const LadderPoint* base = nullptr;
-    std::vector<LadderPoint> baseTime = ladder(rows, scene, c.baselineChapter, RowKind::Time, "double");
+    std::vector<LadderPoint> baseTime = ladder(rows, scene, c.baselineChapter, RowKind::Time, ladderPrecision);
     base = largestTime(baseTime);
     md << "| chapter | spp in " << (base ? formatNumber(base->budget, 3) + " s" : "equal time")
        << " | seconds | rel. MSE at equal time | vs " << c.baselineChapter << " | efficiency 1/(s·relMSE) | vs "
        << c.baselineChapter << " | slope of log MSE vs log spp |\n|---|---|---|---|---|---|---|---|\n";
     for (const std::string& chapter : chapters) {
-      const std::vector<LadderPoint> t = ladder(rows, scene, chapter, RowKind::Time, "double");
+      const std::vector<LadderPoint> t = ladder(rows, scene, chapter, RowKind::Time, ladderPrecision);
       const LadderPoint* p = largestTime(t);
       std::string slope = "—";
       for (const SlopeResult& s : slopes)
@@ -609,7 +619,7 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
     md << "\nRelative MSE at each equal-time budget:\n\n| chapter |";
     std::set<double> budgets;
     for (const Row& r : rows)
-      if (r.scene == scene && r.kind == RowKind::Time && r.precision == "double")
+      if (r.scene == scene && r.kind == RowKind::Time && r.precision == ladderPrecision)
         budgets.insert(r.budget);
     for (double b : budgets)
       md << " " << formatNumber(b, 3) << " s |";
@@ -618,7 +628,7 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
       md << "---|";
     md << "\n";
     for (const std::string& chapter : chapters) {
-      const std::vector<LadderPoint> t = ladder(rows, scene, chapter, RowKind::Time, "double");
+      const std::vector<LadderPoint> t = ladder(rows, scene, chapter, RowKind::Time, ladderPrecision);
       md << "| " << chapter << " |";
       for (double b : budgets) {
         const LadderPoint* p = atBudget(t, BudgetUnit::Seconds, b);
@@ -642,8 +652,8 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
         "plain seconds | time saved |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const std::string& scene : distinct(rows, &Row::scene))
     for (const std::string& chapter : distinct(rows, &Row::chapter)) {
-      const std::vector<LadderPoint> plain = ladder(rows, scene, chapter, RowKind::Spp, "double");
-      for (const LadderPoint& p : ladder(rows, scene, chapter, RowKind::Adaptive, "double")) {
+      const std::vector<LadderPoint> plain = ladder(rows, scene, chapter, RowKind::Spp, ladderPrecision);
+      for (const LadderPoint& p : ladder(rows, scene, chapter, RowKind::Adaptive, ladderPrecision)) {
         anyAdaptive = true;
         const std::optional<EqualError> e = plainAtEqualError(plain, p.relativeMse);
         std::string sppText = "—", secondsText = "—", saved = "—";
@@ -701,7 +711,7 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
         }
         if (!first)
           continue;
-        const std::vector<LadderPoint> few = ladder(rows, scene, chapter, RowKind::Threads, "double", t.threads);
+        const std::vector<LadderPoint> few = ladder(rows, scene, chapter, RowKind::Threads, ladderPrecision, t.threads);
         const LadderPoint* a = atBudget(few, BudgetUnit::Spp, t.budget);
         // The ladder's rows at this budget and the seeds the thread rows used.
         int manyThreads = 0;
@@ -709,7 +719,7 @@ std::string summaryMarkdown(const std::vector<Row>& rows, const SummaryContext& 
         int n = 0;
         bool same = true;
         for (const Row& m : rows)
-          if (m.kind == RowKind::Spp && m.scene == scene && m.chapter == chapter && m.precision == "double" &&
+          if (m.kind == RowKind::Spp && m.scene == scene && m.chapter == chapter && m.precision == ladderPrecision &&
               m.budget == t.budget && m.unit == BudgetUnit::Spp) {
             for (const Row& o : rows)
               if (o.kind == RowKind::Threads && o.scene == scene && o.chapter == chapter && o.budget == t.budget &&

@@ -209,7 +209,12 @@ struct SlopeResult {
   bool acceptable = false; ///< slopeAcceptable(fit.slope).
   double worstReferenceShare = 0; ///< Largest reference share / relative MSE over the ladder, in [0, 1].
 };
-/// Fits the spp ladder of each (scene, chapter) in `rows` (double precision only).
+/// The precision of the main measurements in `rows`: that of their spp ladder, the build of --bin ("double", or
+/// "float" for the float build), which every table and plot reads but float against double; "double" when there
+/// is no ladder.
+std::string mainPrecision(const std::vector<Row>& rows);
+
+/// Fits the spp ladder of each (scene, chapter) in `rows` (the main measurements' precision, mainPrecision).
 std::vector<SlopeResult> fitSlopes(const std::vector<Row>& rows);
 
 /// What the plain spp ladder needs for the error an adaptive render reached: its seconds and spp.

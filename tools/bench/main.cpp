@@ -499,10 +499,11 @@ void writePlots(const std::vector<Row>& rows, const std::vector<std::string>& sc
                 const std::vector<std::string>& chapters, const fs::path& outDir, bool draw, std::vector<std::string>& notes)
 {
   std::vector<PlotPanel> sppPanels, timePanels;
+  const std::string precision = mainPrecision(rows);
   for (const std::string& scene : scenes) {
     PlotPanel bySpp{scene, {}, std::nullopt}, byTime{scene, {}, std::nullopt};
     for (const std::string& chapter : chapters) {
-      const std::vector<LadderPoint> spp = ladder(rows, scene, chapter, RowKind::Spp, "double");
+      const std::vector<LadderPoint> spp = ladder(rows, scene, chapter, RowKind::Spp, precision);
       // One colour per chapter: its plain ladder a line, its equal-time renders dots, its float build squares, its
       // adaptive renders a dashed line with open circles.
       const int color = int(&chapter - chapters.data()) + 1;
@@ -522,7 +523,7 @@ void writePlots(const std::vector<Row>& rows, const std::vector<std::string>& sc
         byTime.series.push_back(t);
       }
       Series eq{shortName(chapter) + " equal time", {}, {}, true, false, color};
-      for (const LadderPoint& p : ladder(rows, scene, chapter, RowKind::Time, "double")) {
+      for (const LadderPoint& p : ladder(rows, scene, chapter, RowKind::Time, precision)) {
         eq.x.push_back(p.seconds);
         eq.y.push_back(p.relativeMse);
       }
@@ -536,7 +537,7 @@ void writePlots(const std::vector<Row>& rows, const std::vector<std::string>& sc
       if (!fl.x.empty())
         byTime.series.push_back(fl);
       // Adaptive sampling: error against seconds, and against the mean spp, threshold by threshold.
-      std::vector<LadderPoint> adaptive = ladder(rows, scene, chapter, RowKind::Adaptive, "double");
+      std::vector<LadderPoint> adaptive = ladder(rows, scene, chapter, RowKind::Adaptive, precision);
       std::sort(adaptive.begin(), adaptive.end(),
                 [](const LadderPoint& a, const LadderPoint& b) { return a.budget > b.budget; });
       Series at{shortName(chapter) + " adaptive", {}, {}, false, true, color};
