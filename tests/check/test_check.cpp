@@ -249,7 +249,8 @@ TEST_CASE("check: a scene beside its render is not read as a --stats file (issue
   CHECK(check({"6", "b.pfm"}, dir.path()).status == 0);
 }
 
-TEST_CASE("check: a deterministic chapter's default render passes as a PFM as it does as a PNG (issue 43)")
+// [double]: the goldens are the double build's images (tests/check/CMakeLists.txt).
+TEST_CASE("check: a deterministic chapter's default render passes as a PFM as it does as a PNG (issue 43)", "[double]")
 {
   TempDir dir;
   render(STEP04, {"--quiet", "-o", "a.pfm", "-o", "a.png"}, dir.path());

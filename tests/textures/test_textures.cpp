@@ -14,6 +14,7 @@
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -21,6 +22,7 @@
 #include <numbers>
 #include <string>
 #include <tuple>
+#include <type_traits>
 #include <vector>
 
 #include <sys/resource.h>
@@ -300,7 +302,8 @@ TEST_CASE("environment: the contract's directions: -z is the centre column, +x a
   // Rotation: +z turns towards +x, so the map turned 90° shows its centre column (-z) along -x.
   const EnvironmentMap map(texels(mapWithPatch(8, 4, 1, 0, 1, 0, 1, 1)), 1, 90);
   CHECK(double(map.uvOf(Vec3(-1, 0, 0)).x) == Approx(0.5).margin(1e-9));
-  CHECK(double(glm::length(map.directionOf(Vec2(0.5, 0.5)) - Vec3(-1, 0, 0))) < 1e-9);
+  CHECK(double(glm::length(map.directionOf(Vec2(0.5, 0.5)) - Vec3(-1, 0, 0))) <
+        (std::is_same_v<Real, float> ? 1e-6 : 1e-9)); // (float keeps about seven digits)
 }
 
 TEST_CASE("a sphere reads its image un-mirrored from outside: its -z is the centre column, -x at u = 3/4")
@@ -324,17 +327,34 @@ TEST_CASE("environment: the sampler's directions follow its pdf (chi-square), an
   for (int x = 0; x < 32; ++x)
     m.at(x, 12, 0) = m.at(x, 12, 1) = m.at(x, 12, 2) = 0;
   const EnvironmentMap map(texels(m), 2, 30);
+  // A sample's pdf is its texel's; pdf(wi) looks the texel up again from the direction. The two agree to 10^-4 in
+  // double. In float (seven digits) they agree to 10^-3, except in two places. Within rounding of a texel's edge,
+  // wi may come back in the neighbour. And within a degree of a pole, sin θ (in the pdf's 1/sin θ) keeps few digits.
+  // There, 11 samples of the 200,000 differed. Those are counted, and must stay that rare. In double, none seen.
+  constexpr double kAgree = std::is_same_v<Real, float> ? 1e-3 : 1e-4;
+  int illConditioned = 0;
+  auto nearAnEdgeOrPole = [&map](const Vec3& wi) {
+    const Vec2 uv = map.uvOf(wi);
+    const double x = double(uv.x) * 32, y = double(uv.y) * 16;
+    return std::min(std::abs(x - std::round(x)), std::abs(y - std::round(y))) < 1e-3 || std::abs(wi.y) > 0.9998;
+  };
   const ChiSquareResult result = chiSquareTest(
       [&](Vec2 u, Real) -> std::optional<Vec3> {
         const auto s = map.sample(u);
         if (!s)
           return std::nullopt;
-        CHECK(double(s->pdf) == Approx(double(map.pdf(s->wi))).epsilon(1e-4));
+        if (std::is_same_v<Real, float> && nearAnEdgeOrPole(s->wi) &&
+            !(double(s->pdf) == Approx(double(map.pdf(s->wi))).epsilon(kAgree)))
+          ++illConditioned;
+        else
+          CHECK(double(s->pdf) == Approx(double(map.pdf(s->wi))).epsilon(kAgree));
         return s->wi;
       },
       [&](const Vec3& w) { return double(map.pdf(w)); }, 200000, 11, 1e-3);
   INFO(result.summary());
   CHECK(result.passed);
+  INFO("float: samples at a texel's edge or a pole whose pdf differed: " << illConditioned);
+  CHECK(illConditioned < 100); // (of 200,000)
   // ∫ pdf dω by a fine midpoint rule in (θ, φ) about +y, dω = sin θ dθ dφ.
   double integral = 0;
   const int n = 400;

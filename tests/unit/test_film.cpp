@@ -102,7 +102,8 @@ TEST_CASE("toDouble scales by a product what two calls to ldexp scaled, to the s
 
 TEST_CASE("the film holds samples below 2^32 only and the render loop counts larger ones as bad")
 {
-  CHECK(Film::holds(Color(0, 1, Real(4294967295.0))));
+  // (The largest Real below 2^32: 2^32 − 2^−20 in double, 2^32 − 256 in float, where 2^32 − 1 rounds to 2^32.)
+  CHECK(Film::holds(Color(0, 1, std::nextafter(Real(4294967296.0), Real(0)))));
   CHECK_FALSE(Film::holds(Color(0, Real(4294967296.0), 0)));
   CHECK_FALSE(Film::holds(Color(std::numeric_limits<Real>::quiet_NaN(), 0, 0)));
   CHECK_FALSE(Film::holds(Color(0, 0, Real(-1e-30))));

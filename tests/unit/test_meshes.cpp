@@ -243,14 +243,16 @@ TEST_CASE("bad mesh entries and bad mesh files are refused with one message nami
        R"({ "material": "whte", "vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 2]] })",
        "undefined material 'whte' (did you mean 'white'?)"},
 
+      // (Beyond the bound, 10^30 in double and 10^8 in float, and finite in float too.)
       {"an inline vertex beyond the bound on a scene's size", "", "",
-       R"({ "material": "white", "vertices": [[0,0,0],[0,-1e250,0],[0,1,0]], "triangles": [[0, 1, 2]] })",
-       "/meshes/0/vertices/1/1: a coordinate must lie within ±1e30 (raylife's bound on a scene's size), got -1e+250"},
+       R"({ "material": "white", "vertices": [[0,0,0],[0,-1e31,0],[0,1,0]], "triangles": [[0, 1, 2]] })",
+       std::string("/meshes/0/vertices/1/1: a coordinate must lie within ±") + kMaxSceneExtentText +
+           " (raylife's bound on a scene's size), got -1e+31"},
       {"a transform that takes a vertex beyond the bound on a scene's size", "", "",
        R"({ "material": "white", "vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 2]],
             "transform": { "scale": 2e30 } })",
-       "/meshes/0/transform: the transform takes a vertex to (2e+30, 0, 0), beyond ±1e30 (raylife's bound on a "
-       "scene's size)"},
+       std::string("/meshes/0/transform: the transform takes a vertex to (2e+30, 0, 0), beyond ±") +
+           kMaxSceneExtentText + " (raylife's bound on a scene's size)"},
       {"smooth not a boolean", "", "",
        R"({ "material": "white", "smooth": 1, "vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0, 1, 2]] })",
        "/meshes/0/smooth: expected true or false"},
