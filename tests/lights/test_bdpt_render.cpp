@@ -18,6 +18,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -39,6 +40,42 @@ void checkAgainstChapter6(const std::string& scene, const std::string& size, int
       run(RAYLIFE_STEP13, scene, size + " --spp " + std::to_string(spp13) + " --seed 131", tag + "13");
   CHECK(compare(c13.mean, c13.variance, c6.mean, c6.variance, tag + ": chapter 13 against chapter 6", nullptr, block)
             .passed());
+}
+
+// The glossy box with its glass ball made diffuse (no delta surface: every strategy can make every path), written to
+// a file of its own: its path. `hugeWalls`: its six walls, spheres of radius 10^5, made 10^9 times as large (in
+// double; the float build keeps them), so that each wall places its points to some 10^-2 units, as float does the
+// box's own.
+std::string noDeltaBox(const std::string& tag, bool hugeWalls)
+{
+  std::ifstream in(kScenes + "/cornell_glossy.json");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string text = buffer.str();
+  auto replace = [&text](const std::string& from, const std::string& to) {
+    const std::size_t at = text.find(from);
+    REQUIRE(at != std::string::npos);
+    text.replace(at, from.size(), to);
+  };
+  replace(R"("type": "glass",   "color": [0.999, 0.999, 0.999], "ior": 1.5)",
+          R"("type": "diffuse", "color": [0.6, 0.6, 0.6])");
+  if (hugeWalls && !std::is_same_v<Real, float>) {
+    for (const auto& [from, to] :
+         {std::pair{"[100001, 40.8, 81.6]", "[100000000000001, 40.8, 81.6]"},
+          {"[-99901, 40.8, 81.6]", "[-99999999999901, 40.8, 81.6]"},
+          {"[50, 40.8, 100000]", "[50, 40.8, 100000000000000]"},
+          {"[50, 40.8, -99830]", "[50, 40.8, -99999999999830]"},
+          {"[50, 100000, 81.6]", "[50, 100000000000000, 81.6]"},
+          {"[50, -99918.4, 81.6]", "[50, -99999999999918.4, 81.6]"}})
+      replace(from, to);
+    for (int wall = 0; wall < 6; ++wall)
+      replace(R"("radius": 100000,)", R"("radius": 100000000000000,)");
+  }
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("raylife_bdpt_" + tag + "_" + std::to_string(::getpid()) + ".json"))
+                               .string();
+  std::ofstream(path) << text;
+  return path;
 }
 
 } // namespace
@@ -156,22 +193,12 @@ TEST_CASE("each strategy alone - unweighted - renders the same image of the path
   // The check before MIS: in a box of diffuse and glossy surfaces only, every strategy (s, t) of paths of k = 3
   // edges (one bounce between the lamp and the surface seen) can make every such path, so each one alone, without
   // its weight, is an unbiased estimate of the same image. Compared per 2 x 2 block with next-event estimation.
-  namespace fs = std::filesystem;
-  std::ifstream in(kScenes + "/cornell_glossy.json");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  std::string text = buffer.str();
-  const std::string glass = R"("type": "glass",   "color": [0.999, 0.999, 0.999], "ior": 1.5)";
-  const std::size_t at = text.find(glass);
-  REQUIRE(at != std::string::npos);
-  text.replace(at, glass.size(), R"("type": "diffuse", "color": [0.6, 0.6, 0.6])");
-  const fs::path path = fs::temp_directory_path() / ("raylife_bdpt_no_delta_" + std::to_string(::getpid()) + ".json");
-  std::ofstream(path) << text;
+  const std::string path = noDeltaBox("no_delta", false);
   const std::string args = "--width 32 --height 24 --spp 256 --unweighted --strategy ";
-  const ChapterRender nee = run(RAYLIFE_STEP13, path.string(), args + "1,3 --seed 21", "bdpt_u13");
+  const ChapterRender nee = run(RAYLIFE_STEP13, path, args + "1,3 --seed 21", "bdpt_u13");
   for (const auto& [s, t] : {std::pair{0, 4}, {2, 2}, {3, 1}}) {
     const std::string name = std::to_string(s) + "," + std::to_string(t);
-    const ChapterRender r = run(RAYLIFE_STEP13, path.string(), args + name + " --seed " + std::to_string(22 + s),
+    const ChapterRender r = run(RAYLIFE_STEP13, path, args + name + " --seed " + std::to_string(22 + s),
                                 "bdpt_u" + std::to_string(s));
     const Verdict v = compare(r.mean, r.variance, nee.mean, nee.variance, "unweighted (" + name + ") against (1,3)",
                               nullptr, 2);
@@ -185,7 +212,26 @@ TEST_CASE("each strategy alone - unweighted - renders the same image of the path
       CHECK(v.passed());
     }
   }
-  fs::remove(path);
+  std::filesystem::remove(path);
+}
+
+// (No colon late in the name: Catch2 indents a name's further lines past its first colon, and asserts when that
+// leaves no width.)
+TEST_CASE("unweighted (2,2) renders (1,3)'s image on walls that place their points to 10^-2 (both ends of a "
+          "connection leave their surfaces)")
+{
+  // The box above with walls of radius 10^14 (in the float build its own, 10^5): each wall's points are placed to
+  // some 10^-2 units, more than a shadow ray's shortening by 10^-4 covers across the room. With the far end of a
+  // connection left on its surface (spawnRayTo to a point), that surface blocked it: (2,2) came out 29 % dark in
+  // double, 12 % in float. Both ends moved off (spawnRayTo(from, to)), it matches (1,3).
+  const std::string path = noDeltaBox("huge_walls", true);
+  const std::string args = "--width 32 --height 24 --spp 256 --unweighted --strategy ";
+  const ChapterRender nee = run(RAYLIFE_STEP13, path, args + "1,3 --seed 31", "bdpt_h13");
+  const ChapterRender r = run(RAYLIFE_STEP13, path, args + "2,2 --seed 32", "bdpt_h22");
+  const Verdict v = compare(r.mean, r.variance, nee.mean, nee.variance, "huge walls: unweighted (2,2) against (1,3)",
+                            nullptr, 2);
+  CHECK(std::abs(v.worstTotalZ) <= kMaxTotalZ); // (only the image mean: see the test above)
+  std::filesystem::remove(path);
 }
 
 TEST_CASE("a bad --strategy or --unweighted alone exits with status 2 and writes nothing")
