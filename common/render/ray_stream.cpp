@@ -7,8 +7,11 @@
 #include <hwy/highway.h>
 
 #include "render/ray_stream.h"
+#include "scene/light_sampling.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <numbers>
 
 HWY_BEFORE_NAMESPACE();
@@ -340,6 +343,142 @@ void SphereLightDirections(const SphereLightInput& in, std::size_t count, const 
 }
 /// [sphereLightDirections]
 
+/// [triangleLightDirections]
+// Three vectors' worth of lanes, x, y and z, for the triangle light's algebra.
+struct Vec3Lanes {
+  V x, y, z;
+};
+HWY_INLINE V dotLanes(const Vec3Lanes& a, const Vec3Lanes& b) // glm::dot: (x + y) + z
+{
+  return hn::Add(hn::Add(hn::Mul(a.x, b.x), hn::Mul(a.y, b.y)), hn::Mul(a.z, b.z));
+}
+HWY_INLINE Vec3Lanes crossLanes(const Vec3Lanes& a, const Vec3Lanes& b) // glm::cross
+{
+  return {hn::Sub(hn::Mul(a.y, b.z), hn::Mul(b.y, a.z)), hn::Sub(hn::Mul(a.z, b.x), hn::Mul(b.z, a.x)),
+          hn::Sub(hn::Mul(a.x, b.y), hn::Mul(b.x, a.y))};
+}
+HWY_INLINE Vec3Lanes scaleAdd(V s, const Vec3Lanes& a, V t, const Vec3Lanes& b) // s·a + t·b
+{
+  return {hn::Add(hn::Mul(s, a.x), hn::Mul(t, b.x)), hn::Add(hn::Mul(s, a.y), hn::Mul(t, b.y)),
+          hn::Add(hn::Mul(s, a.z), hn::Mul(t, b.z))};
+}
+HWY_INLINE Vec3Lanes minusScaled(const Vec3Lanes& a, V s, const Vec3Lanes& b) // a − s·b
+{
+  return {hn::Sub(a.x, hn::Mul(s, b.x)), hn::Sub(a.y, hn::Mul(s, b.y)), hn::Sub(a.z, hn::Mul(s, b.z))};
+}
+HWY_INLINE Vec3Lanes divLanes(const Vec3Lanes& a, V s) { return {hn::Div(a.x, s), hn::Div(a.y, s), hn::Div(a.z, s)}; }
+// std::clamp(v, lo, hi): v < lo ? lo : (hi < v ? hi : v), so a NaN stays a NaN.
+HWY_INLINE V clampLanes(V v, V lo, V hi)
+{
+  return hn::IfThenElse(hn::Lt(v, lo), lo, hn::IfThenElse(hn::Lt(hi, v), hi, v));
+}
+// safeNormalize(v, ·)'s usual branch, v/√(v·v); `rare` gets the lanes whose v·v is outside its range (they take
+// the scalar function).
+HWY_INLINE Vec3Lanes normalizeLanes(D d, const Vec3Lanes& v, M& rare)
+{
+  const V length2 = dotLanes(v, v);
+  const V low = hn::Set(d, std::numeric_limits<Real>::min() * Real(1 << 20));
+  const V high = hn::Set(d, std::numeric_limits<Real>::max() / Real(1 << 20));
+  rare = hn::Or(rare, hn::Not(hn::And(hn::Gt(length2, low), hn::Lt(length2, high))));
+  return divLanes(v, hn::Sqrt(length2));
+}
+// f(x) lane by lane through a scalar function (libm's, for the scalar code's bits).
+template <class F> HWY_INLINE V laneByLane(D d, V x, F f)
+{
+  HWY_ALIGN Real buffer[hn::MaxLanes(d)];
+  hn::Store(x, d, buffer);
+  for (std::size_t j = 0; j < hn::Lanes(d); ++j)
+    buffer[j] = f(buffer[j]);
+  return hn::Load(d, buffer);
+}
+
+// f(k) for each lane k of [i, i + n) that `rare` holds: the lanes the scalar code decides.
+template <class F> HWY_INLINE void forRareLanes(D d, M rare, std::size_t i, std::size_t n, F f)
+{
+  if (hn::AllFalse(d, rare))
+    return;
+  HWY_ALIGN Real flag[hn::MaxLanes(d)];
+  hn::Store(hn::IfThenElseZero(rare, hn::Set(d, Real(1))), d, flag);
+  for (std::size_t j = 0; j < n; ++j)
+    if (flag[j] != 0)
+      f(i + j);
+}
+
+void TriangleLightDirections(const TriangleLightInput& in, std::size_t count, const TriangleLightOutput& out)
+{
+  const D d;
+  const std::size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d), one = hn::Set(d, Real(1)), two = hn::Set(d, Real(2)), minusOne = hn::Set(d, Real(-1));
+  const V minArea = hn::Set(d, Real(kMinSphericalTriangleArea)), maxArea = hn::Set(d, Real(kMaxSphericalTriangleArea));
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
+    const V px = load(in.px), py = load(in.py), pz = load(in.pz);
+    // sphericalTriangle: the unit directions towards the corners, and the solid angle
+    // 2·atan2(|a·(b × c)|, 1 + a·b + b·c + c·a).
+    const Vec3Lanes da{hn::Sub(load(in.ax), px), hn::Sub(load(in.ay), py), hn::Sub(load(in.az), pz)};
+    const Vec3Lanes db{hn::Sub(load(in.bx), px), hn::Sub(load(in.by), py), hn::Sub(load(in.bz), pz)};
+    const Vec3Lanes dc{hn::Sub(load(in.cx), px), hn::Sub(load(in.cy), py), hn::Sub(load(in.cz), pz)};
+    const V la = hn::Sqrt(dotLanes(da, da)), lb = hn::Sqrt(dotLanes(db, db)), lc = hn::Sqrt(dotLanes(dc, dc));
+    M rare = hn::Not(hn::And(hn::And(hn::Gt(la, zero), hn::Gt(lb, zero)), hn::Gt(lc, zero)));
+    const Vec3Lanes a = divLanes(da, la), b = divLanes(db, lb), c = divLanes(dc, lc);
+    const V ab = dotLanes(a, b);
+    const V numerator = hn::Abs(dotLanes(a, crossLanes(b, c)));
+    const V denominator = hn::Add(hn::Add(hn::Add(one, ab), dotLanes(b, c)), dotLanes(c, a));
+    HWY_ALIGN Real num[hn::MaxLanes(d)], den[hn::MaxLanes(d)];
+    hn::Store(numerator, d, num);
+    hn::Store(denominator, d, den);
+    for (std::size_t j = 0; j < lanes; ++j)
+      num[j] = std::atan2(num[j], den[j]);
+    const V area = hn::Mul(two, hn::Load(d, num));
+    // Sampled by area where the solid angle is out of Arvo's range: the scalar function.
+    rare = hn::Or(rare, hn::Not(hn::And(hn::Ge(area, minArea), hn::Le(area, maxArea))));
+
+    // sampleSphericalTriangle (Arvo): the angle α at A, ...
+    const Vec3Lanes nab = crossLanes(a, b), nac = crossLanes(a, c);
+    const V lab = hn::Sqrt(dotLanes(nab, nab)), lac = hn::Sqrt(dotLanes(nac, nac));
+    rare = hn::Or(rare, hn::Not(hn::And(hn::And(hn::Gt(area, zero), hn::Gt(lab, zero)), hn::Gt(lac, zero))));
+    const V cosAlpha = clampLanes(hn::Div(dotLanes(nab, nac), hn::Mul(lab, lac)), minusOne, one);
+    const V alpha = laneByLane(d, cosAlpha, [](Real x) { return std::acos(x); });
+    const V sinAlpha = hn::Sqrt(maxZero(d, hn::Mul(hn::Sub(one, cosAlpha), hn::Add(one, cosAlpha))));
+    // ... the corner C' of the sub-triangle of area u₀·Ω on the arc from A to C, ...
+    const V angle = hn::Sub(hn::Mul(load(in.u1), area), alpha);
+    // (Sine and cosine in one loop, which GCC makes one sincos call a lane, as it does in the scalar code.)
+    HWY_ALIGN Real sines[hn::MaxLanes(d)], cosines[hn::MaxLanes(d)];
+    hn::Store(angle, d, sines);
+    for (std::size_t j = 0; j < lanes; ++j) {
+      cosines[j] = std::cos(sines[j]);
+      sines[j] = std::sin(sines[j]);
+    }
+    const V s = hn::Load(d, sines), t = hn::Load(d, cosines);
+    const V uu = hn::Sub(t, cosAlpha);
+    const V vv = hn::Add(s, hn::Mul(sinAlpha, ab));
+    const V q = clampLanes(hn::Div(hn::Sub(hn::Mul(hn::Sub(hn::Mul(vv, t), hn::Mul(uu, s)), cosAlpha), vv),
+                                   hn::Mul(hn::Add(hn::Mul(vv, s), hn::Mul(uu, t)), sinAlpha)),
+                           minusOne, one);
+    const Vec3Lanes cPerp = normalizeLanes(d, minusScaled(c, dotLanes(c, a), a), rare);
+    const Vec3Lanes cPrime = scaleAdd(q, a, hn::Sqrt(maxZero(d, hn::Sub(one, hn::Mul(q, q)))), cPerp);
+    // ... and the direction on the arc from B to C', at cosine z to B.
+    const V z = clampLanes(hn::Sub(one, hn::Mul(load(in.u2), hn::Sub(one, dotLanes(cPrime, b)))), minusOne, one);
+    const Vec3Lanes bPerp = normalizeLanes(d, minusScaled(cPrime, dotLanes(cPrime, b), b), rare);
+    const Vec3Lanes wi = normalizeLanes(d, scaleAdd(z, b, hn::Sqrt(maxZero(d, hn::Sub(one, hn::Mul(z, z)))), bPerp),
+                                        rare);
+    storeLanes(d, wi.x, out.wx.data(), i, n);
+    storeLanes(d, wi.y, out.wy.data(), i, n);
+    storeLanes(d, wi.z, out.wz.data(), i, n);
+    storeLanes(d, hn::Div(one, area), out.pdf.data(), i, n);
+    forRareLanes(d, rare, i, n, [&](std::size_t k) {
+      const std::optional<TriangleLightSample<Real>> ts =
+          sampleTriangleLight(Vec3(in.px[k], in.py[k], in.pz[k]), Vec3(in.ax[k], in.ay[k], in.az[k]),
+                              Vec3(in.bx[k], in.by[k], in.bz[k]), Vec3(in.cx[k], in.cy[k], in.cz[k]),
+                              Vec2(in.u1[k], in.u2[k]));
+      out.wx[k] = ts ? ts->wi.x : 0, out.wy[k] = ts ? ts->wi.y : 0, out.wz[k] = ts ? ts->wi.z : 0;
+      out.pdf[k] = ts ? ts->pdf : 0;
+    });
+  }
+}
+/// [triangleLightDirections]
+
 /// [shadowRaysToSpheres]
 // offsetRayOrigin, lane by lane: |n|·error along n, to the side w leaves through, then one ulp further.
 struct OriginLanes {
@@ -358,6 +497,21 @@ HWY_INLINE OriginLanes offsetOriginLanes(D d, V px, V py, V pz, V ex, V ey, V ez
           nextAlongLanes(d, hn::Add(pz, offZ), offZ)};
 }
 
+// The origins of shadow rays [i, i + n) of `in` (a ShadowSpawnInput or a TriangleShadowInput: the points, their
+// errors and normals, the directions), stored in `out` and returned.
+template <class In>
+HWY_INLINE OriginLanes spawnLanes(D d, const In& in, std::size_t i, std::size_t n, const ShadowSpawnOutput& out)
+{
+  auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
+  const OriginLanes o = offsetOriginLanes(d, load(in.px), load(in.py), load(in.pz), load(in.ex), load(in.ey),
+                                          load(in.ez), load(in.gx), load(in.gy), load(in.gz), load(in.wx),
+                                          load(in.wy), load(in.wz));
+  storeLanes(d, o.x, out.ox.data(), i, n);
+  storeLanes(d, o.y, out.oy.data(), i, n);
+  storeLanes(d, o.z, out.oz.data(), i, n);
+  return o;
+}
+
 void ShadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const ShadowSpawnOutput& out)
 {
   const D d;
@@ -366,11 +520,7 @@ void ShadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const Sh
     const std::size_t n = std::min(lanes, count - i);
     auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
     const V wx = load(in.wx), wy = load(in.wy), wz = load(in.wz);
-    const auto [ox, oy, oz] = offsetOriginLanes(d, load(in.px), load(in.py), load(in.pz), load(in.ex), load(in.ey),
-                                                load(in.ez), load(in.gx), load(in.gy), load(in.gz), wx, wy, wz);
-    storeLanes(d, ox, out.ox.data(), i, n);
-    storeLanes(d, oy, out.oy.data(), i, n);
-    storeLanes(d, oz, out.oz.data(), i, n);
+    const auto [ox, oy, oz] = spawnLanes(d, in, i, n, out);
     // Where the ray first meets its sphere, in [0, ∞).
     const V t = firstRoot(d, ox, oy, oz, wx, wy, wz, hn::Set(d, kInfinity), load(in.cx), load(in.cy), load(in.cz),
                           load(in.radius));
@@ -378,6 +528,163 @@ void ShadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const Sh
   }
 }
 /// [shadowRaysToSpheres]
+
+/// [shadowRaysToTriangles]
+// v's axes as intersectTriangle permutes them, so that the direction's largest component comes last: (y, z, x)
+// where that is x, (z, x, y) where it is y, (x, y, z) where it is z.
+HWY_INLINE Vec3Lanes permuteLanes(M zIsX, M zIsY, const Vec3Lanes& v)
+{
+  return {hn::IfThenElse(zIsX, v.y, hn::IfThenElse(zIsY, v.z, v.x)),
+          hn::IfThenElse(zIsX, v.z, hn::IfThenElse(zIsY, v.x, v.y)),
+          hn::IfThenElse(zIsX, v.x, hn::IfThenElse(zIsY, v.y, v.z))};
+}
+// std::max(|x|, std::max(|y|, |z|)), with std::max(a, b) = a < b ? b : a.
+HWY_INLINE V maxAbsLanes(V x, V y, V z)
+{
+  const V ax = hn::Abs(x), ay = hn::Abs(y), az = hn::Abs(z);
+  const V yz = hn::IfThenElse(hn::Lt(ay, az), az, ay);
+  return hn::IfThenElse(hn::Lt(ax, yz), yz, ax);
+}
+// What intersectTriangle finds, lane by lane: t and the barycentrics, and the lanes where it refuses the hit.
+struct TriangleLanes {
+  V t, b0, b1, b2;
+  M refused;
+};
+// intersectTriangle(o, w, p0, p1, p2, 0, tmax), one ray and one triangle a lane: the same operations in the same
+// order, every refusal asked of every lane. `rare` gets the lanes the scalar test must decide (float only: an edge
+// function of exactly 0, which it works out again in double).
+HWY_INLINE TriangleLanes triangleLanes(D d, const Vec3Lanes& o, const Vec3Lanes& w, const Vec3Lanes& p0,
+                                       const Vec3Lanes& p1, const Vec3Lanes& p2, V tmax, M& rare)
+{
+  const V zero = hn::Zero(d), one = hn::Set(d, Real(1)), two = hn::Set(d, Real(2)), three = hn::Set(d, Real(3));
+  // The vertices moved to the ray's origin, the axes permuted, x and y sheared.
+  const V adx = hn::Abs(w.x), ady = hn::Abs(w.y), adz = hn::Abs(w.z);
+  const M xOverY = hn::Gt(adx, ady);
+  const M zIsX = hn::And(xOverY, hn::Gt(adx, adz)), zIsY = hn::AndNot(xOverY, hn::Gt(ady, adz));
+  const Vec3Lanes dp = permuteLanes(zIsX, zIsY, w);
+  Vec3Lanes a = permuteLanes(zIsX, zIsY, {hn::Sub(p0.x, o.x), hn::Sub(p0.y, o.y), hn::Sub(p0.z, o.z)});
+  Vec3Lanes b = permuteLanes(zIsX, zIsY, {hn::Sub(p1.x, o.x), hn::Sub(p1.y, o.y), hn::Sub(p1.z, o.z)});
+  Vec3Lanes c = permuteLanes(zIsX, zIsY, {hn::Sub(p2.x, o.x), hn::Sub(p2.y, o.y), hn::Sub(p2.z, o.z)});
+  const V sx = hn::Div(hn::Neg(dp.x), dp.z), sy = hn::Div(hn::Neg(dp.y), dp.z), sz = hn::Div(one, dp.z);
+  for (Vec3Lanes* v : {&a, &b, &c}) {
+    v->x = hn::Add(v->x, hn::Mul(sx, v->z));
+    v->y = hn::Add(v->y, hn::Mul(sy, v->z));
+  }
+  // The edge functions, their signs, det, and t scaled by det.
+  const V e0 = hn::Sub(hn::Mul(b.x, c.y), hn::Mul(b.y, c.x));
+  const V e1 = hn::Sub(hn::Mul(c.x, a.y), hn::Mul(c.y, a.x));
+  const V e2 = hn::Sub(hn::Mul(a.x, b.y), hn::Mul(a.y, b.x));
+  if constexpr (std::is_same_v<Real, float>)
+    rare = hn::Or(rare, hn::Or(hn::Or(hn::Eq(e0, zero), hn::Eq(e1, zero)), hn::Eq(e2, zero)));
+  M refused = hn::And(hn::Or(hn::Or(hn::Lt(e0, zero), hn::Lt(e1, zero)), hn::Lt(e2, zero)),
+                      hn::Or(hn::Or(hn::Gt(e0, zero), hn::Gt(e1, zero)), hn::Gt(e2, zero)));
+  const V det = hn::Add(hn::Add(e0, e1), e2);
+  refused = hn::Or(refused, hn::Eq(det, zero));
+  a.z = hn::Mul(a.z, sz), b.z = hn::Mul(b.z, sz), c.z = hn::Mul(c.z, sz);
+  const V tScaled = hn::Add(hn::Add(hn::Mul(e0, a.z), hn::Mul(e1, b.z)), hn::Mul(e2, c.z));
+  refused = hn::Or(refused, hn::Or(hn::And(hn::Lt(det, zero), hn::Ge(tScaled, zero)),
+                                   hn::And(hn::Gt(det, zero), hn::Le(tScaled, zero))));
+  const V invDet = hn::Div(one, det);
+  const V t = hn::Mul(tScaled, invDet);
+  refused = hn::Or(refused, hn::Not(hn::And(hn::Ge(t, zero), hn::Lt(t, tmax))));
+  // t only where it is greater than 0 beyond its rounding error.
+  const V maxZ = maxAbsLanes(a.z, b.z, c.z), maxX = maxAbsLanes(a.x, b.x, c.x), maxY = maxAbsLanes(a.y, b.y, c.y);
+  const V deltaZ = hn::Mul(hn::Set(d, gamma<Real>(3)), maxZ);
+  const V deltaX = hn::Mul(hn::Set(d, gamma<Real>(5)), hn::Add(maxX, maxZ));
+  const V deltaY = hn::Mul(hn::Set(d, gamma<Real>(5)), hn::Add(maxY, maxZ));
+  const V deltaE = hn::Mul(two, hn::Add(hn::Add(hn::Mul(hn::Mul(hn::Set(d, gamma<Real>(2)), maxX), maxY),
+                                                hn::Mul(deltaY, maxX)),
+                                        hn::Mul(deltaX, maxY)));
+  const V maxE = maxAbsLanes(e0, e1, e2);
+  const V deltaT = hn::Mul(hn::Mul(three, hn::Add(hn::Add(hn::Mul(hn::Mul(hn::Set(d, gamma<Real>(3)), maxE), maxZ),
+                                                          hn::Mul(deltaE, maxZ)),
+                                                  hn::Mul(deltaZ, maxE))),
+                           hn::Abs(invDet));
+  refused = hn::Or(refused, hn::Not(hn::Gt(t, deltaT)));
+  return {t, hn::Mul(e0, invDet), hn::Mul(e1, invDet), hn::Mul(e2, invDet), refused};
+}
+
+void ShadowRaysToTriangles(const TriangleShadowInput& in, std::size_t count, const ShadowSpawnOutput& out)
+{
+  const D d;
+  const std::size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d);
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
+    const V wx = load(in.wx), wy = load(in.wy), wz = load(in.wz);
+    const auto [ox, oy, oz] = spawnLanes(d, in, i, n, out);
+    M rare = hn::Ne(zero, zero);
+    const TriangleLanes h = triangleLanes(d, {ox, oy, oz}, {wx, wy, wz}, {load(in.ax), load(in.ay), load(in.az)},
+                                          {load(in.bx), load(in.by), load(in.bz)},
+                                          {load(in.cx), load(in.cy), load(in.cz)}, hn::Set(d, kInfinity), rare);
+    storeLanes(d, hn::IfThenElse(h.refused, hn::Set(d, kInfinity), h.t), out.t.data(), i, n);
+    forRareLanes(d, rare, i, n, [&](std::size_t k) {
+      const std::optional<TriangleHit<Real>> scalar = intersectTriangle(
+          Vec3(out.ox[k], out.oy[k], out.oz[k]), Vec3(in.wx[k], in.wy[k], in.wz[k]), Vec3(in.ax[k], in.ay[k], in.az[k]),
+          Vec3(in.bx[k], in.by[k], in.bz[k]), Vec3(in.cx[k], in.cy[k], in.cz[k]), Real(0), kInfinity);
+      out.t[k] = scalar ? scalar->t : kInfinity;
+    });
+  }
+}
+/// [shadowRaysToTriangles]
+
+/// [triangleHitPoints]
+void TriangleHitPoints(const TriangleHitInput& in, std::size_t count, const TriangleHitOutput& out)
+{
+  const D d;
+  const std::size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d), third = hn::Set(d, Real(1) / 3), gamma7 = hn::Set(d, gamma<Real>(7));
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
+    const Vec3Lanes p0{load(in.ax), load(in.ay), load(in.az)}, p1{load(in.bx), load(in.by), load(in.bz)},
+        p2{load(in.cx), load(in.cy), load(in.cz)};
+    M rare = hn::Ne(zero, zero);
+    const TriangleLanes h = triangleLanes(d, {load(in.ox), load(in.oy), load(in.oz)},
+                                          {load(in.dx), load(in.dy), load(in.dz)}, p0, p1, p2, load(in.tmax), rare);
+    const V b0 = hn::IfThenElse(h.refused, third, h.b0), b1 = hn::IfThenElse(h.refused, third, h.b1),
+            b2 = hn::IfThenElse(h.refused, third, h.b2);
+    // trianglePoint: b0·p0 + b1·p1 + b2·p2, and γ(7)·(|b0·p0| + |b1·p1| + |b2·p2|).
+    const Vec3Lanes q0{hn::Mul(b0, p0.x), hn::Mul(b0, p0.y), hn::Mul(b0, p0.z)};
+    const Vec3Lanes q1{hn::Mul(b1, p1.x), hn::Mul(b1, p1.y), hn::Mul(b1, p1.z)};
+    const Vec3Lanes q2{hn::Mul(b2, p2.x), hn::Mul(b2, p2.y), hn::Mul(b2, p2.z)};
+    storeLanes(d, hn::Add(hn::Add(q0.x, q1.x), q2.x), out.px.data(), i, n);
+    storeLanes(d, hn::Add(hn::Add(q0.y, q1.y), q2.y), out.py.data(), i, n);
+    storeLanes(d, hn::Add(hn::Add(q0.z, q1.z), q2.z), out.pz.data(), i, n);
+    auto error = [&](V a, V b, V c) {
+      return hn::Mul(gamma7, hn::Add(hn::Add(absLanes(a), absLanes(b)), absLanes(c)));
+    };
+    storeLanes(d, error(q0.x, q1.x, q2.x), out.ex.data(), i, n);
+    storeLanes(d, error(q0.y, q1.y, q2.y), out.ey.data(), i, n);
+    storeLanes(d, error(q0.z, q1.z, q2.z), out.ez.data(), i, n);
+    // triangleNormal: (p1 − p0) × (p2 − p0), normalised.
+    const Vec3Lanes g = normalizeLanes(
+        d,
+        crossLanes({hn::Sub(p1.x, p0.x), hn::Sub(p1.y, p0.y), hn::Sub(p1.z, p0.z)},
+                   {hn::Sub(p2.x, p0.x), hn::Sub(p2.y, p0.y), hn::Sub(p2.z, p0.z)}),
+        rare);
+    storeLanes(d, g.x, out.gx.data(), i, n);
+    storeLanes(d, g.y, out.gy.data(), i, n);
+    storeLanes(d, g.z, out.gz.data(), i, n);
+    storeLanes(d, b0, out.b0.data(), i, n);
+    storeLanes(d, b1, out.b1.data(), i, n);
+    storeLanes(d, b2, out.b2.data(), i, n);
+    forRareLanes(d, rare, i, n, [&](std::size_t k) {
+      const Vec3 a(in.ax[k], in.ay[k], in.az[k]), b(in.bx[k], in.by[k], in.bz[k]), c(in.cx[k], in.cy[k], in.cz[k]);
+      const std::optional<TriangleHit<Real>> th = intersectTriangle(
+          Vec3(in.ox[k], in.oy[k], in.oz[k]), Vec3(in.dx[k], in.dy[k], in.dz[k]), a, b, c, Real(0), in.tmax[k]);
+      const Real w0 = th ? th->b0 : Real(1) / 3, w1 = th ? th->b1 : Real(1) / 3, w2 = th ? th->b2 : Real(1) / 3;
+      const TrianglePoint<Real> tp = trianglePoint(a, b, c, w0, w1, w2);
+      const Vec3 normal = triangleNormal(a, b, c);
+      out.px[k] = tp.point.x, out.py[k] = tp.point.y, out.pz[k] = tp.point.z;
+      out.ex[k] = tp.error.x, out.ey[k] = tp.error.y, out.ez[k] = tp.error.z;
+      out.gx[k] = normal.x, out.gy[k] = normal.y, out.gz[k] = normal.z;
+      out.b0[k] = w0, out.b1[k] = w1, out.b2[k] = w2;
+    });
+  }
+}
+/// [triangleHitPoints]
 
 /// [pointLightRays]
 void PointLightRays(const PointLightInput& in, std::size_t count, const PointLightOutput& out)
@@ -620,7 +927,10 @@ HWY_EXPORT(AnySpheres);
 HWY_EXPORT(DiffuseBounces);
 HWY_EXPORT(SphereHitPoints);
 HWY_EXPORT(SphereLightDirections);
+HWY_EXPORT(TriangleLightDirections);
 HWY_EXPORT(ShadowRaysToSpheres);
+HWY_EXPORT(ShadowRaysToTriangles);
+HWY_EXPORT(TriangleHitPoints);
 HWY_EXPORT(DiffuseLightSamples);
 HWY_EXPORT(PointLightRays);
 HWY_EXPORT(GuidedWarps);
@@ -687,6 +997,11 @@ void sphereLightDirections(const SphereLightInput& in, std::size_t count, const 
   HWY_DYNAMIC_DISPATCH(SphereLightDirections)(in, count, out);
 }
 
+void triangleLightDirections(const TriangleLightInput& in, std::size_t count, const TriangleLightOutput& out)
+{
+  HWY_DYNAMIC_DISPATCH(TriangleLightDirections)(in, count, out);
+}
+
 void diffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const DiffuseLightOutput& out)
 {
   HWY_DYNAMIC_DISPATCH(DiffuseLightSamples)(in, count, out);
@@ -700,6 +1015,16 @@ void pointLightRays(const PointLightInput& in, std::size_t count, const PointLig
 void shadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const ShadowSpawnOutput& out)
 {
   HWY_DYNAMIC_DISPATCH(ShadowRaysToSpheres)(in, count, out);
+}
+
+void shadowRaysToTriangles(const TriangleShadowInput& in, std::size_t count, const ShadowSpawnOutput& out)
+{
+  HWY_DYNAMIC_DISPATCH(ShadowRaysToTriangles)(in, count, out);
+}
+
+void triangleHitPoints(const TriangleHitInput& in, std::size_t count, const TriangleHitOutput& out)
+{
+  HWY_DYNAMIC_DISPATCH(TriangleHitPoints)(in, count, out);
 }
 
 void guideCells(const GuideCellGrid& grid, std::span<const Real> px, std::span<const Real> py,

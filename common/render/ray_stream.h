@@ -140,6 +140,48 @@ struct SphereHitOutput {
 /// sphere (its point, normal and error bound).
 void sphereHitPoints(const SphereHitInput& in, std::size_t count, const SphereHitOutput& out);
 
+/// Rays that hit triangles, stored by coordinate: each ray and its triangle.
+struct TriangleHitInput {
+  std::span<const Real> ox;   ///< The rays' origins: x.
+  std::span<const Real> oy;   ///< The rays' origins: y.
+  std::span<const Real> oz;   ///< The rays' origins: z.
+  std::span<const Real> dx;   ///< The rays' unit directions: x.
+  std::span<const Real> dy;   ///< The rays' unit directions: y.
+  std::span<const Real> dz;   ///< The rays' unit directions: z.
+  std::span<const Real> tmax; ///< The rays' far ends (their tmin is 0, as RayStream::get gives it).
+  std::span<const Real> ax;   ///< Corner p0 of each ray's triangle: x.
+  std::span<const Real> ay;   ///< Corner p0: y.
+  std::span<const Real> az;   ///< Corner p0: z.
+  std::span<const Real> bx;   ///< Corner p1: x.
+  std::span<const Real> by;   ///< Corner p1: y.
+  std::span<const Real> bz;   ///< Corner p1: z.
+  std::span<const Real> cx;   ///< Corner p2: x.
+  std::span<const Real> cy;   ///< Corner p2: y.
+  std::span<const Real> cz;   ///< Corner p2: z.
+};
+
+/// The surface points of those hits, stored by coordinate.
+struct TriangleHitOutput {
+  std::span<Real> px; ///< The point from its barycentrics (trianglePoint): x.
+  std::span<Real> py; ///< The point: y.
+  std::span<Real> pz; ///< The point: z.
+  std::span<Real> ex; ///< The bound on the point's error, per coordinate: x.
+  std::span<Real> ey; ///< The bound: y.
+  std::span<Real> ez; ///< The bound: z.
+  std::span<Real> gx; ///< The unit geometric normal (triangleNormal): x.
+  std::span<Real> gy; ///< The normal: y.
+  std::span<Real> gz; ///< The normal: z.
+  std::span<Real> b0; ///< The barycentric weight of p0 (for a smooth mesh's shading normal).
+  std::span<Real> b1; ///< The weight of p1.
+  std::span<Real> b2; ///< The weight of p2.
+};
+
+/// For hits [0, count): what Scene::intersect's record of a triangle hit takes from the triangle, bit for bit:
+/// intersectTriangle's barycentrics on the same ray (1/3 each, as the scene's record, should it refuse), the point
+/// and its error bound from them (trianglePoint), and the geometric normal (triangleNormal). A lane whose normal
+/// needs safeNormalize's rare branch, or (float) whose edge function is exactly 0, gets the scalar functions.
+void triangleHitPoints(const TriangleHitInput& in, std::size_t count, const TriangleHitOutput& out);
+
 /// Shading points and the still spherical light each chose (LightSampler::choose), stored by coordinate.
 struct SphereLightInput {
   std::span<const Real> px; ///< The shading points, world space: x.
@@ -166,6 +208,39 @@ struct SphereLightOutput {
 /// For points [0, count): sampleSphereCone(p, c, r, u) and choice · sphereConePdf(p, c, r) · guide, bit for bit:
 /// the direction and pdf LightSampler::sampleChosen gives for a sphere.
 void sphereLightDirections(const SphereLightInput& in, std::size_t count, const SphereLightOutput& out);
+
+/// Shading points and the triangle light each chose (LightSampler::choose), stored by coordinate.
+struct TriangleLightInput {
+  std::span<const Real> px; ///< The shading points, world space: x.
+  std::span<const Real> py; ///< The shading points, world space: y.
+  std::span<const Real> pz; ///< The shading points, world space: z.
+  std::span<const Real> ax; ///< Corner p0 of each point's light, world space: x.
+  std::span<const Real> ay; ///< Corner p0: y.
+  std::span<const Real> az; ///< Corner p0: z.
+  std::span<const Real> bx; ///< Corner p1: x.
+  std::span<const Real> by; ///< Corner p1: y.
+  std::span<const Real> bz; ///< Corner p1: z.
+  std::span<const Real> cx; ///< Corner p2: x.
+  std::span<const Real> cy; ///< Corner p2: y.
+  std::span<const Real> cz; ///< Corner p2: z.
+  std::span<const Real> u1; ///< LightChoice::u.x, in [0, 1).
+  std::span<const Real> u2; ///< LightChoice::u.y, in [0, 1).
+};
+
+/// The triangle light samples' directions and pdfs, stored by coordinate.
+struct TriangleLightOutput {
+  std::span<Real> wx;  ///< The direction towards the light, unit, world space: x (0 where there is no sample).
+  std::span<Real> wy;  ///< The direction: y.
+  std::span<Real> wz;  ///< The direction: z.
+  std::span<Real> pdf; ///< Its solid-angle pdf (TriangleLightSample::pdf, > 0), or 0 where there is no sample.
+};
+
+/// For points [0, count): sampleTriangleLight(p, p0, p1, p2, u), bit for bit: the direction and the pdf (light choice
+/// and guide not included) LightSampler::sampleChosen gives for a triangle. The sampling by solid angle runs in the
+/// lanes, its atan2, acos, sin and cos through the scalar functions lane by lane (so the same bits); a lane sampled
+/// by area, or one of the rare cases (a point on a corner, a degenerate spherical triangle, a vector too short or
+/// too long for safeNormalize's usual branch), gets the scalar function itself.
+void triangleLightDirections(const TriangleLightInput& in, std::size_t count, const TriangleLightOutput& out);
 
 /// The light guide's grid of cells (LightSampler::GuideGrid) with, per cell, the number guideCells gives for it.
 struct GuideCellGrid {
@@ -275,6 +350,39 @@ struct ShadowSpawnOutput {
 /// For rays [0, count): the origin spawnRay(hit, w) gives (offsetRayOrigin(p, e, g, w)) and the first root of the
 /// ray with its sphere in [0, ∞) (intersectSphere), bit for bit: the ray lightVisible tests for a spherical light.
 void shadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const ShadowSpawnOutput& out);
+
+/// Surface points, the directions of shadow rays from them, and the triangles the rays are aimed at, stored by
+/// coordinate.
+struct TriangleShadowInput {
+  std::span<const Real> px; ///< The surface points: x.
+  std::span<const Real> py; ///< The surface points: y.
+  std::span<const Real> pz; ///< The surface points: z.
+  std::span<const Real> ex; ///< Their error bounds: x.
+  std::span<const Real> ey; ///< Their error bounds: y.
+  std::span<const Real> ez; ///< Their error bounds: z.
+  std::span<const Real> gx; ///< Their geometric normals: x.
+  std::span<const Real> gy; ///< Their geometric normals: y.
+  std::span<const Real> gz; ///< Their geometric normals: z.
+  std::span<const Real> wx; ///< The unit directions of the rays: x.
+  std::span<const Real> wy; ///< The unit directions of the rays: y.
+  std::span<const Real> wz; ///< The unit directions of the rays: z.
+  std::span<const Real> ax; ///< Corner p0 of the triangle each ray is aimed at: x.
+  std::span<const Real> ay; ///< Corner p0: y.
+  std::span<const Real> az; ///< Corner p0: z.
+  std::span<const Real> bx; ///< Corner p1: x.
+  std::span<const Real> by; ///< Corner p1: y.
+  std::span<const Real> bz; ///< Corner p1: z.
+  std::span<const Real> cx; ///< Corner p2: x.
+  std::span<const Real> cy; ///< Corner p2: y.
+  std::span<const Real> cz; ///< Corner p2: z.
+};
+
+/// For rays [0, count): the origin spawnRay(hit, w) gives (offsetRayOrigin(p, e, g, w)) and where the ray meets its
+/// triangle in [0, ∞) (intersectTriangle's t; +∞ where it does not), bit for bit: the shadow ray chapter 8 makes for
+/// a triangle light (Scene::intersectPrimitive gives its length). The watertight test runs in the lanes, each lane
+/// with its own choice of axes; in a float build a lane with an edge function of exactly 0, which the scalar test
+/// decides again in double, gets the scalar test.
+void shadowRaysToTriangles(const TriangleShadowInput& in, std::size_t count, const ShadowSpawnOutput& out);
 
 /// Shading points and the point light each chose, stored by coordinate: each point with its error bound and
 /// geometric normal (as a Hit holds them), and the light's position and intensity.

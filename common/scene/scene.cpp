@@ -37,10 +37,22 @@ std::optional<Hit> makeSphereHit(const std::vector<Sphere>& spheres, const Ray& 
 }
 
 // [triangleHit]
+// A smooth mesh's normal: its vertex normals interpolated at the hit, turned to the front side.
+Vec3 shadingNormal(const Scene& scene, std::size_t triangle, Real b0, Real b1, Real b2, const Vec3& geometricNormal)
+{
+  const Triangle& tri = scene.triangles[triangle];
+  if (!scene.meshes[tri.mesh].smooth)
+    return geometricNormal;
+  const Vec3 n = b0 * scene.vertexNormals[tri.v[0]] + b1 * scene.vertexNormals[tri.v[1]] +
+                 b2 * scene.vertexNormals[tri.v[2]];
+  const Vec3 shading = safeNormalize(n, geometricNormal);
+  return glm::dot(shading, geometricNormal) < 0 ? -shading : shading;
+}
+
 // The hit record of triangle `triangle` (an index into scene.triangles), which the ray hits at parameter t: the
 // test is made again for the barycentrics (the search kept only t), the point comes from them with its error bound,
-// and a smooth mesh's normal is its vertex normals interpolated there, turned to the front side. (Out of line, so that
-// Scene::intersect stays small enough to be inlined into the chapters.)
+// and so does a smooth mesh's normal. (Out of line, so that Scene::intersect stays small enough to be inlined into the
+// chapters.)
 [[gnu::noinline]] std::optional<Hit> makeTriangleHit(const Scene& scene, const Ray& ray, Real t, std::size_t triangle)
 {
   const Triangle& tri = scene.triangles[triangle];
@@ -54,13 +66,7 @@ std::optional<Hit> makeSphereHit(const std::vector<Sphere>& spheres, const Ray& 
   hit->t = t;
   hit->point = tp.point;
   hit->geometricNormal = triangleNormal(p0, p1, p2);
-  hit->normal = hit->geometricNormal;
-  if (scene.meshes[tri.mesh].smooth) {
-    const Vec3 n = b.b0 * scene.vertexNormals[tri.v[0]] + b.b1 * scene.vertexNormals[tri.v[1]] +
-                   b.b2 * scene.vertexNormals[tri.v[2]];
-    const Vec3 shading = safeNormalize(n, hit->geometricNormal);
-    hit->normal = glm::dot(shading, hit->geometricNormal) < 0 ? -shading : shading;
-  }
+  hit->normal = shadingNormal(scene, triangle, b.b0, b.b1, b.b2, hit->geometricNormal);
   hit->pointError = tp.error;
   hit->primitive = int(scene.spheres.size() + triangle);
   hit->material = tri.material;
@@ -156,6 +162,11 @@ std::optional<Hit> Scene::intersect(const Ray& ray) const
   return makeHit(*this, ray, nearest.t, nearest.primitive);
 }
 // [intersect]
+
+Vec3 Scene::triangleShadingNormal(std::size_t triangle, Real b0, Real b1, Real b2, const Vec3& geometricNormal) const
+{
+  return shadingNormal(*this, triangle, b0, b1, b2, geometricNormal);
+}
 
 Hit Scene::hitAt(const Ray& ray, Real t, int primitive) const { return *makeHit(*this, ray, t, primitive); }
 

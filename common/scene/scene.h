@@ -268,6 +268,14 @@ struct Scene {
     return {vertices[tri.v[0]], vertices[tri.v[1]], vertices[tri.v[2]]};
   }
 
+  /// The shading normal of triangle `triangle` (an index into `triangles`) at barycentrics (b0, b1, b2), as a hit
+  /// record holds it: for a smooth mesh its vertex normals so weighted, normalised (geometricNormal where that
+  /// leaves no direction) and turned to geometricNormal's side; for a flat mesh geometricNormal itself.
+  /// @param triangle an index into `triangles`. @param b0,b1,b2 the hit's barycentric weights of its corners (as
+  ///   intersectTriangle gives them: each in [0, 1], summing to 1). @param geometricNormal the triangle's unit normal
+  ///   (triangleNormal).
+  Vec3 triangleShadingNormal(std::size_t triangle, Real b0, Real b1, Real b2, const Vec3& geometricNormal) const;
+
   /// True when anything blocks the ray inside [ray.tmin, ray.tmax): the shadow-ray query, which may stop at
   /// the first blocker it finds. Counts one ray.
   bool occluded(const Ray& ray) const;

@@ -1,10 +1,11 @@
 // The stream kernels of chapter 16 (render/ray_stream.h) against the scalar code they vectorise, in every
 // instruction set this machine runs (each forced in turn), bit for bit: the nearest and any sphere of a flat list
-// against the loop over intersectSphere, the hit records against sphereSurfacePoint, the directions towards spherical
-// lights against sampleSphereCone and sphereConePdf, the shadow rays against offsetRayOrigin and intersectSphere, and
-// the diffuse bounces against lambertianSample in Frame, the light guide's cells and warps against LightSampler::cellOf
-// and SampleTree::sampleMixture; on random rays, hits and numbers, with stream lengths that are not a multiple of the
-// lanes.
+// against the loop over intersectSphere, the hit records against sphereSurfacePoint (and intersectTriangle,
+// trianglePoint and triangleNormal), the directions towards spherical lights against sampleSphereCone and
+// sphereConePdf, those towards triangle lights against sampleTriangleLight, the shadow rays against offsetRayOrigin
+// and intersectSphere or intersectTriangle, and the diffuse bounces against lambertianSample in Frame, the light
+// guide's cells and warps against LightSampler::cellOf and SampleTree::sampleMixture; on random rays, hits and
+// numbers, with stream lengths that are not a multiple of the lanes.
 #include "core/frame.h"
 #include "core/rng.h"
 #include "geometry/hit.h"
@@ -236,6 +237,62 @@ TEST_CASE("stream kernels: sphereHitPoints equals sphereSurfacePoint, bit for bi
   });
 }
 
+TEST_CASE("stream kernels: triangleHitPoints equals intersectTriangle, trianglePoint and triangleNormal, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    const std::size_t count = 30005;
+    Pcg32 rng(9, 12);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    std::vector<Real> ox(count), oy(count), oz(count), dx(count), dy(count), dz(count), tmax(count), ax(count),
+        ay(count), az(count), bx(count), by(count), bz(count), cx(count), cy(count), cz(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      // A triangle of size 1e-9 to 10 (the smallest with a cross product too short for safeNormalize's usual
+      // branch), some degenerate (no normal), most far from the origin; a ray from up to 50 away aimed at a point
+      // of it, at a corner, or past it (the test refuses: the record's 1/3 each), some along an axis.
+      const Vec3 centre(200 * u() - 100, 200 * u() - 100, 200 * u() - 100);
+      const Real size = i % 13 == 0 ? Real(1e-9) : Real(0.1) + 10 * u();
+      const Vec3 p0 = centre + size * randomDirection(rng), p1 = centre + size * randomDirection(rng);
+      Vec3 p2 = centre + size * randomDirection(rng);
+      if (i % 31 == 0)
+        p2 = p0 + Real(2) * (p1 - p0); // in line: no area, no normal
+      const Real b1 = u(), b2 = u() * (1 - b1);
+      const Vec3 target = i % 11 == 0 ? p1 : (1 - b1 - b2) * p0 + b1 * p1 + b2 * p2;
+      Vec3 o = target + (1 + 50 * u()) * randomDirection(rng);
+      if (i % 17 == 0)
+        o = target + Vec3(0, 0, 1 + 10 * u()); // straight down the z axis
+      Vec3 d = glm::normalize(target - o);
+      if (i % 7 == 0)
+        d = randomDirection(rng);
+      ox[i] = o.x, oy[i] = o.y, oz[i] = o.z, dx[i] = d.x, dy[i] = d.y, dz[i] = d.z;
+      tmax[i] = i % 5 == 0 ? Real(1) + 10 * u() : kInfinity;
+      ax[i] = p0.x, ay[i] = p0.y, az[i] = p0.z, bx[i] = p1.x, by[i] = p1.y, bz[i] = p1.z;
+      cx[i] = p2.x, cy[i] = p2.y, cz[i] = p2.z;
+    }
+    std::vector<Real> px(count), py(count), pz(count), ex(count), ey(count), ez(count), gx(count), gy(count), gz(count),
+        w0(count), w1(count), w2(count);
+    triangleHitPoints({ox, oy, oz, dx, dy, dz, tmax, ax, ay, az, bx, by, bz, cx, cy, cz}, count,
+                      {px, py, pz, ex, ey, ez, gx, gy, gz, w0, w1, w2});
+    std::size_t wrong = 0, hits = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Vec3 p0(ax[i], ay[i], az[i]), p1(bx[i], by[i], bz[i]), p2(cx[i], cy[i], cz[i]);
+      const std::optional<TriangleHit<Real>> h =
+          intersectTriangle(Vec3(ox[i], oy[i], oz[i]), Vec3(dx[i], dy[i], dz[i]), p0, p1, p2, Real(0), tmax[i]);
+      hits += h.has_value();
+      const Real b0 = h ? h->b0 : Real(1) / 3, b1 = h ? h->b1 : Real(1) / 3, b2 = h ? h->b2 : Real(1) / 3;
+      const TrianglePoint<Real> tp = trianglePoint(p0, p1, p2, b0, b1, b2);
+      const Vec3 n = triangleNormal(p0, p1, p2);
+      wrong += !sameBits(px[i], tp.point.x) || !sameBits(py[i], tp.point.y) || !sameBits(pz[i], tp.point.z) ||
+               !sameBits(ex[i], tp.error.x) || !sameBits(ey[i], tp.error.y) || !sameBits(ez[i], tp.error.z) ||
+               !sameBits(gx[i], n.x) || !sameBits(gy[i], n.y) || !sameBits(gz[i], n.z) || !sameBits(w0[i], b0) ||
+               !sameBits(w1[i], b1) || !sameBits(w2[i], b2);
+    }
+    INFO(hits << " of " << count << " rays hit their triangle");
+    CHECK(hits > count / 2);
+    CHECK(hits < count);
+    CHECK(wrong == 0);
+  });
+}
+
 TEST_CASE("stream kernels: sphereLightDirections equals sampleSphereCone and its pdf, from outside and inside")
 {
   forEachTarget([](const SimdTarget&) {
@@ -264,6 +321,57 @@ TEST_CASE("stream kernels: sphereLightDirections equals sampleSphereCone and its
       wrong += !sameBits(wx[i], w.x) || !sameBits(wy[i], w.y) || !sameBits(wz[i], w.z) || !sameBits(pdf[i], expected);
     }
     CHECK(wrong == 0);
+  });
+}
+
+TEST_CASE("stream kernels: triangleLightDirections equals sampleTriangleLight, by solid angle and by area")
+{
+  forEachTarget([](const SimdTarget&) {
+    const std::size_t count = 30001;
+    Pcg32 rng(7, 3);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    std::vector<Real> px(count), py(count), pz(count), ax(count), ay(count), az(count), bx(count), by(count),
+        bz(count), cx(count), cy(count), cz(count), u1(count), u2(count);
+    std::size_t bySolidAngle = 0, byArea = 0, none = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      // A triangle of size 0.01 to 10 somewhere in a room, seen from near (a large solid angle, some past Arvo's
+      // range), from far (a tiny one, sampled by area), from its own plane, from a corner, or degenerate.
+      const Vec3 centre(100 * u() - 50, 100 * u() - 50, 100 * u() - 50);
+      const Real size = i % 3 == 0 ? Real(0.01) : Real(0.1) + 10 * u();
+      const Vec3 p0 = centre + size * randomDirection(rng), p1 = centre + size * randomDirection(rng);
+      Vec3 p2 = centre + size * randomDirection(rng);
+      if (i % 97 == 0)
+        p2 = p0 + Real(0.5) * (p1 - p0); // on the edge p0 p1: no area
+      const Real distance = i % 7 == 0 ? Real(1e-3) * size : i % 7 == 1 ? Real(1e3) * size : size * 4 * u();
+      Vec3 p = centre + distance * randomDirection(rng);
+      if (i % 89 == 0)
+        p = p0; // on a corner
+      if (i % 83 == 0)
+        p = p0 + u() * (p1 - p0) + u() * (p2 - p0) * Real(0.25); // in the triangle's plane
+      px[i] = p.x, py[i] = p.y, pz[i] = p.z, ax[i] = p0.x, ay[i] = p0.y, az[i] = p0.z, bx[i] = p1.x, by[i] = p1.y;
+      bz[i] = p1.z, cx[i] = p2.x, cy[i] = p2.y, cz[i] = p2.z;
+      u1[i] = i % 11 == 0 ? Real(0) : u(), u2[i] = i % 13 == 0 ? Real(0) : u();
+    }
+    std::vector<Real> wx(count), wy(count), wz(count), pdf(count);
+    triangleLightDirections({px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz, u1, u2}, count, {wx, wy, wz, pdf});
+    std::size_t wrong = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Vec3 p(px[i], py[i], pz[i]), p0(ax[i], ay[i], az[i]), p1(bx[i], by[i], bz[i]), p2(cx[i], cy[i], cz[i]);
+      const std::optional<TriangleLightSample<Real>> ts = sampleTriangleLight(p, p0, p1, p2, Vec2(u1[i], u2[i]));
+      if (!ts) {
+        ++none;
+        wrong += !sameBits(pdf[i], 0) || !sameBits(wx[i], 0) || !sameBits(wy[i], 0) || !sameBits(wz[i], 0);
+        continue;
+      }
+      (sampledBySolidAngle(triangleSolidAngle(p, p0, p1, p2)) ? bySolidAngle : byArea) += 1;
+      wrong += !sameBits(wx[i], ts->wi.x) || !sameBits(wy[i], ts->wi.y) || !sameBits(wz[i], ts->wi.z) ||
+               !sameBits(pdf[i], ts->pdf);
+    }
+    CHECK(wrong == 0);
+    // Every branch taken, the lanes' one most of all.
+    CHECK(bySolidAngle > count / 2);
+    CHECK(byArea > 1000);
+    CHECK(none > 50);
   });
 }
 
@@ -305,6 +413,62 @@ TEST_CASE("stream kernels: shadowRaysToSpheres equals offsetRayOrigin and inters
     }
     INFO(met << " of " << count << " rays meet their sphere");
     CHECK(met > count / 10);
+    CHECK(met < count);
+    CHECK(wrong == 0);
+  });
+}
+
+TEST_CASE("stream kernels: shadowRaysToTriangles equals offsetRayOrigin and intersectTriangle, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    const std::size_t count = 30003;
+    Pcg32 rng(8, 11);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    std::vector<Real> px(count), py(count), pz(count), ex(count), ey(count), ez(count), gx(count), gy(count),
+        gz(count), wx(count), wy(count), wz(count), ax(count), ay(count), az(count), bx(count), by(count), bz(count),
+        cx(count), cy(count), cz(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      // A point on a unit sphere far from the origin, and a triangle near it; the ray aimed at a point of the
+      // triangle (most), at one of its corners or edges, or anywhere; some directions along an axis or with two
+      // components of one magnitude (the choice of axes' ties), some triangles seen edge on.
+      const Vec3 n = randomDirection(rng);
+      const Vec3 p = Vec3(1e3, -2e2, 5e2) + n;
+      const Vec3 e = gamma<Real>(5) * absBranchFree(n) + gamma<Real>(2) * absBranchFree(p);
+      const Vec3 centre = p + (2 + 20 * u()) * randomDirection(rng);
+      const Real size = Real(0.1) + 5 * u();
+      const Vec3 p0 = centre + size * randomDirection(rng), p1 = centre + size * randomDirection(rng);
+      Vec3 p2 = centre + size * randomDirection(rng);
+      if (i % 17 == 0)
+        p2 = p + (p1 - p) * Real(2); // p1 and p2 in line with p: the triangle edge on from some rays
+      const Real b1 = u(), b2 = u() * (1 - b1);
+      const Vec3 target = i % 11 == 0 ? p0 : i % 11 == 1 ? p0 + u() * (p1 - p0)
+                                                          : (1 - b1 - b2) * p0 + b1 * p1 + b2 * p2;
+      Vec3 w = i % 7 == 0 ? randomDirection(rng) : glm::normalize(target - p);
+      if (i % 23 == 0)
+        w = Vec3(0, i % 2 ? 1 : -1, 0);
+      if (i % 29 == 0)
+        w = glm::normalize(Vec3(1, i % 2 ? 1 : -1, Real(0.5)));
+      px[i] = p.x, py[i] = p.y, pz[i] = p.z, ex[i] = e.x, ey[i] = e.y, ez[i] = e.z;
+      gx[i] = n.x, gy[i] = n.y, gz[i] = n.z, wx[i] = w.x, wy[i] = w.y, wz[i] = w.z;
+      ax[i] = p0.x, ay[i] = p0.y, az[i] = p0.z, bx[i] = p1.x, by[i] = p1.y, bz[i] = p1.z;
+      cx[i] = p2.x, cy[i] = p2.y, cz[i] = p2.z;
+    }
+    std::vector<Real> ox(count), oy(count), oz(count), t(count);
+    shadowRaysToTriangles({px, py, pz, ex, ey, ez, gx, gy, gz, wx, wy, wz, ax, ay, az, bx, by, bz, cx, cy, cz}, count,
+                          {ox, oy, oz, t});
+    std::size_t wrong = 0, met = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Vec3 w(wx[i], wy[i], wz[i]);
+      const Vec3 o =
+          offsetRayOrigin(Vec3(px[i], py[i], pz[i]), Vec3(ex[i], ey[i], ez[i]), Vec3(gx[i], gy[i], gz[i]), w);
+      const std::optional<TriangleHit<Real>> h = intersectTriangle(
+          o, w, Vec3(ax[i], ay[i], az[i]), Vec3(bx[i], by[i], bz[i]), Vec3(cx[i], cy[i], cz[i]), Real(0), kInfinity);
+      met += h.has_value();
+      wrong += !sameBits(ox[i], o.x) || !sameBits(oy[i], o.y) || !sameBits(oz[i], o.z) ||
+               !sameBits(t[i], h ? h->t : kInfinity);
+    }
+    INFO(met << " of " << count << " rays meet their triangle");
+    CHECK(met > count / 2);
     CHECK(met < count);
     CHECK(wrong == 0);
   });
