@@ -112,6 +112,20 @@ struct SphereHitColumns {
   }
 };
 
+/// The triangle hits of a round by coordinate: extend's input to triangleHitPoints and its output.
+struct TriangleHitColumns {
+  std::vector<std::uint32_t> path; // which path each entry is
+  std::vector<Real> ox, oy, oz, dx, dy, dz, tmax, ax, ay, az, bx, by, bz, cx, cy, cz, px, py, pz, ex, ey, ez, gx, gy,
+      gz, b0, b1, b2;
+  void resize(std::size_t n)
+  {
+    atLeast(path, n);
+    for (std::vector<Real>* v : {&ox, &oy, &oz, &dx, &dy, &dz, &tmax, &ax, &ay, &az, &bx, &by, &bz, &cx, &cy, &cz, &px,
+                                 &py, &pz, &ex, &ey, &ez, &gx, &gy, &gz, &b0, &b1, &b2})
+      atLeast(*v, n);
+  }
+};
+
 /// The light samples towards still spheres of a round by coordinate: shade's input to sphereLightDirections,
 /// diffuseLightSamples and shadowRaysToSpheres, and their output.
 struct SphereLightColumns {
@@ -158,6 +172,27 @@ struct PointLightColumns {
   }
 };
 
+/// The light samples towards triangles of a round by coordinate: shade's input to triangleLightDirections and
+/// diffuseLightSamples, and their output.
+struct TriangleLightColumns {
+  std::vector<std::uint32_t> path; // which path each entry is
+  std::vector<Real> px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz, u1, u2, wx, wy, wz, solidAnglePdf; // directions
+  std::vector<Real> choice, guide, pdf, nx, ny, nz, dx, dy, dz, betaR, betaG, betaB, rhoR, rhoG, rhoB, leR, leG, leB,
+      lightR, lightG, lightB, useful;                                 // the light they bring
+  std::vector<Real> ex, ey, ez, gx, gy, gz, ox, oy, oz, t; // the shadow rays
+  void resize(std::size_t n)
+  {
+    atLeast(path, n);
+    for (std::vector<Real>* v : {&px,    &py,    &pz,    &ax,    &ay,    &az,     &bx,     &by,     &bz,
+                                 &cx,    &cy,    &cz,    &u1,    &u2,    &wx,     &wy,     &wz,     &solidAnglePdf,
+                                 &choice, &guide, &pdf,  &nx,    &ny,    &nz,     &dx,     &dy,     &dz,
+                                 &betaR, &betaG, &betaB, &rhoR,  &rhoG,  &rhoB,   &leR,    &leG,    &leB,
+                                 &lightR, &lightG, &lightB, &useful, &ex,  &ey,     &ez,     &gx,     &gy,
+                                 &gz,    &ox,    &oy,    &oz,    &t})
+      atLeast(*v, n);
+  }
+};
+
 /// The queues and scratch arrays of one wavefront, kept from round to round (a round allocates nothing once the
 /// first has sized them).
 struct Queues {
@@ -170,8 +205,10 @@ struct Queues {
   std::vector<Ray> rays;                      // (camera rays, for the tree's packets)
   std::vector<std::optional<BvhHit>> hits;    // (and their answers)
   SphereHitColumns sphereHits;      // and the hit records' points, normals and error bounds
+  TriangleHitColumns triangleHits;  // (on triangles too)
   SphereLightColumns sphereLights;  // shade: light samples towards still spheres
   PointLightColumns pointLights;    // and towards point lights
+  TriangleLightColumns triangleLights; // and towards triangles
   // shade: the paths grouped by material, and which go on.
   std::vector<std::uint32_t> diffuse, other, grouped;
   std::vector<std::uint8_t> goesOn;
@@ -214,6 +251,7 @@ struct Stages {
   MisHeuristic heuristic;
   bool sphereKernels;
   SphereList spheres;
+  bool triangleLights; // some triangle emits: its light samples' columns are needed
 };
 
 /// [generate]
@@ -238,8 +276,9 @@ void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, 
 /// [extend]
 // Stage 2, extend: the nearest hit of every path's ray. First what each ray hits: in a short list of still spheres
 // one ray per lane (the stream kernel); in a tree, camera rays in packets of sixteen neighbours, the others one ray at
-// a time (chapter 9's walk, which tests a node's eight boxes in the lanes). Then the hit records: on still spheres many at a time, on triangles and moving spheres one by
-// one. (A short list with triangles or motion goes through the scene's own query, record and all.)
+// a time (chapter 9's walk, which tests a node's eight boxes in the lanes). Then the hit records: on still spheres
+// and on triangles many at a time, on moving spheres one by one. (A short list with triangles or motion goes through
+// the scene's own query, record and all.)
 void extend(const Stages& st, Queues& q, bool cameraRays)
 {
   const Scene& scene = st.scene;
@@ -275,14 +314,27 @@ void extend(const Stages& st, Queues& q, bool cameraRays)
   }
   countRays(n);
   SphereHitColumns& h = q.sphereHits;
+  TriangleHitColumns& th = q.triangleHits;
   h.resize(n);
-  std::size_t m = 0;
+  if (!scene.triangles.empty())
+    th.resize(n);
+  std::size_t m = 0, mt = 0;
   for (std::uint32_t i = 0; i < n; ++i) {
     const int primitive = q.primitive[i];
     if (primitive < 0)
       continue;
     q.found[i] = 1;
-    if (std::size_t(primitive) >= scene.spheres.size() || scene.spheres[std::size_t(primitive)].moving()) {
+    if (std::size_t(primitive) >= scene.spheres.size()) {
+      const auto [p0, p1, p2] = scene.triangleVertices(std::size_t(primitive) - scene.spheres.size());
+      th.path[mt] = i, th.ox[mt] = paths.ray.ox[i], th.oy[mt] = paths.ray.oy[i], th.oz[mt] = paths.ray.oz[i];
+      th.dx[mt] = paths.ray.dx[i], th.dy[mt] = paths.ray.dy[i], th.dz[mt] = paths.ray.dz[i];
+      th.tmax[mt] = paths.ray.tmax[i];
+      th.ax[mt] = p0.x, th.ay[mt] = p0.y, th.az[mt] = p0.z, th.bx[mt] = p1.x, th.by[mt] = p1.y, th.bz[mt] = p1.z;
+      th.cx[mt] = p2.x, th.cy[mt] = p2.y, th.cz[mt] = p2.z;
+      ++mt;
+      continue;
+    }
+    if (scene.spheres[std::size_t(primitive)].moving()) {
       q.hit[i] = scene.hitAt(paths.ray.get(i, paths.time[i]), q.t[i], primitive);
       continue;
     }
@@ -304,6 +356,24 @@ void extend(const Stages& st, Queues& q, bool cameraRays)
     hit.pointError = Vec3(h.ex[k], h.ey[k], h.ez[k]);
     hit.primitive = q.primitive[i];
     hit.material = scene.spheres[std::size_t(q.primitive[i])].material;
+    hit.time = paths.time[i];
+  }
+  // The triangle hits' points, error bounds and normals (as the scene's record makes them), many at a time; a smooth
+  // mesh's shading normal, from the barycentrics, one by one.
+  triangleHitPoints({th.ox, th.oy, th.oz, th.dx, th.dy, th.dz, th.tmax, th.ax, th.ay, th.az, th.bx, th.by, th.bz, th.cx,
+                     th.cy, th.cz},
+                    mt, {th.px, th.py, th.pz, th.ex, th.ey, th.ez, th.gx, th.gy, th.gz, th.b0, th.b1, th.b2});
+  for (std::size_t k = 0; k < mt; ++k) {
+    const std::uint32_t i = th.path[k];
+    const std::size_t triangle = std::size_t(q.primitive[i]) - scene.spheres.size();
+    Hit& hit = q.hit[i];
+    hit.t = q.t[i];
+    hit.point = Vec3(th.px[k], th.py[k], th.pz[k]);
+    hit.geometricNormal = Vec3(th.gx[k], th.gy[k], th.gz[k]);
+    hit.normal = scene.triangleShadingNormal(triangle, th.b0[k], th.b1[k], th.b2[k], hit.geometricNormal);
+    hit.pointError = Vec3(th.ex[k], th.ey[k], th.ez[k]);
+    hit.primitive = q.primitive[i];
+    hit.material = scene.triangles[triangle].material;
     hit.time = paths.time[i];
   }
 }
@@ -352,14 +422,29 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   std::swap(q.other, q.grouped);
 
   // Light sampling (as chapters 7 and 8): a light, a direction towards it, and its shadow ray into connect's
-  // queue. A point light's or a still sphere's direction and shadow ray are left to the stream kernels (below) when
-  // `inLanes` (a diffuse surface).
+  // queue. A point light's, a still sphere's or a triangle's direction and shadow ray are left to the stream kernels
+  // (below) when `inLanes` (a diffuse surface).
   SphereLightColumns& sl = q.sphereLights;
   PointLightColumns& pl = q.pointLights;
+  TriangleLightColumns& tl = q.triangleLights;
   sl.resize(n);
   if (!scene.lights.empty()) // (the point lights' columns only where there are some: 350 bytes a path)
     pl.resize(n);
-  std::size_t nl = 0, ng = 0, np = 0;
+  if (st.triangleLights) // (and the triangles' where some emit: 400 bytes a path)
+    tl.resize(n);
+  std::size_t nl = 0, ng = 0, np = 0, nt = 0;
+  // What every light sample in the lanes needs of its path, its hit and its surface, into entry k of `c` (the
+  // sphere or the triangle lights' columns).
+  auto shadingColumns = [&](auto& c, std::size_t k, std::uint32_t i, const Hit& hit, const Material& m,
+                            const Color& Le) {
+    c.nx[k] = hit.normal.x, c.ny[k] = hit.normal.y, c.nz[k] = hit.normal.z;
+    c.dx[k] = paths.ray.dx[i], c.dy[k] = paths.ray.dy[i], c.dz[k] = paths.ray.dz[i];
+    c.betaR[k] = paths.beta[i].r, c.betaG[k] = paths.beta[i].g, c.betaB[k] = paths.beta[i].b;
+    c.rhoR[k] = m.color.r, c.rhoG[k] = m.color.g, c.rhoB[k] = m.color.b;
+    c.leR[k] = Le.r, c.leG[k] = Le.g, c.leB[k] = Le.b;
+    c.ex[k] = hit.pointError.x, c.ey[k] = hit.pointError.y, c.ez[k] = hit.pointError.z;
+    c.gx[k] = hit.geometricNormal.x, c.gy[k] = hit.geometricNormal.y, c.gz[k] = hit.geometricNormal.z;
+  };
   auto sampleLight = [&](std::uint32_t i, const Material& m, int cell, bool inLanes) {
     const Hit& hit = q.hit[i];
     const Real uLight = paths.sampler[i].next1D();
@@ -398,14 +483,22 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
         sl.alpha[ng] = chosen->guideShare, sl.v1[ng] = chosen->u.x, sl.v2[ng] = chosen->u.y;
         ++ng;
       }
-      sl.nx[nl] = hit.normal.x, sl.ny[nl] = hit.normal.y, sl.nz[nl] = hit.normal.z;
-      sl.dx[nl] = paths.ray.dx[i], sl.dy[nl] = paths.ray.dy[i], sl.dz[nl] = paths.ray.dz[i];
-      sl.betaR[nl] = paths.beta[i].r, sl.betaG[nl] = paths.beta[i].g, sl.betaB[nl] = paths.beta[i].b;
-      sl.rhoR[nl] = m.color.r, sl.rhoG[nl] = m.color.g, sl.rhoB[nl] = m.color.b;
-      sl.leR[nl] = Le.r, sl.leG[nl] = Le.g, sl.leB[nl] = Le.b;
-      sl.ex[nl] = hit.pointError.x, sl.ey[nl] = hit.pointError.y, sl.ez[nl] = hit.pointError.z;
-      sl.gx[nl] = hit.geometricNormal.x, sl.gy[nl] = hit.geometricNormal.y, sl.gz[nl] = hit.geometricNormal.z;
+      shadingColumns(sl, nl, i, hit, m, Le);
       ++nl;
+      return;
+    }
+    if (inLanes && chosen->light >= 0 && std::size_t(chosen->light) >= scene.spheres.size()) {
+      // (The guide's warp, where it guides, is done here: its numbers go into the lanes as drawn from it.)
+      const LightChoice g = st.lights.guided(*chosen);
+      const auto [p0, p1, p2] = scene.triangleVertices(std::size_t(chosen->light) - scene.spheres.size());
+      const Color& Le = scene.materials[std::size_t(scene.materialOf(chosen->light))].emission;
+      tl.path[nt] = i;
+      tl.px[nt] = hit.point.x, tl.py[nt] = hit.point.y, tl.pz[nt] = hit.point.z;
+      tl.ax[nt] = p0.x, tl.ay[nt] = p0.y, tl.az[nt] = p0.z, tl.bx[nt] = p1.x, tl.by[nt] = p1.y, tl.bz[nt] = p1.z;
+      tl.cx[nt] = p2.x, tl.cy[nt] = p2.y, tl.cz[nt] = p2.z;
+      tl.u1[nt] = g.u.x, tl.u2[nt] = g.u.y, tl.choice[nt] = g.choice, tl.guide[nt] = g.guide;
+      shadingColumns(tl, nt, i, hit, m, Le);
+      ++nt;
       return;
     }
     const Frame frame = Frame::fromNormal(hit.normal);
@@ -510,6 +603,29 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
                          q.hit[pl.path[k]].time},
                      Color(pl.lightR[k], pl.lightG[k], pl.lightB[k]), paths.slot[pl.path[k]]);
 
+  // The diffuse paths' light samples towards triangles, all at once: the directions (sampleTriangleLight), the pdf
+  // (the choice's, the direction's, then the guide's, as sampleChosen multiplies them), the light each would bring,
+  // and the shadow rays, each as long as the way to its triangle (the watertight test in the lanes).
+  triangleLightDirections({tl.px, tl.py, tl.pz, tl.ax, tl.ay, tl.az, tl.bx, tl.by, tl.bz, tl.cx, tl.cy, tl.cz, tl.u1,
+                           tl.u2},
+                          nt, {tl.wx, tl.wy, tl.wz, tl.solidAnglePdf});
+  for (std::size_t k = 0; k < nt; ++k)
+    tl.pdf[k] = tl.choice[k] * tl.solidAnglePdf[k] * tl.guide[k];
+  diffuseLightSamples({tl.nx, tl.ny, tl.nz, tl.dx, tl.dy, tl.dz, tl.wx, tl.wy, tl.wz, tl.pdf, tl.betaR, tl.betaG,
+                       tl.betaB, tl.rhoR, tl.rhoG, tl.rhoB, tl.leR, tl.leG, tl.leB,
+                       st.heuristic == MisHeuristic::Power},
+                      nt, {tl.lightR, tl.lightG, tl.lightB, tl.useful});
+  shadowRaysToTriangles({tl.px, tl.py, tl.pz, tl.ex, tl.ey, tl.ez, tl.gx, tl.gy, tl.gz, tl.wx, tl.wy, tl.wz, tl.ax,
+                         tl.ay, tl.az, tl.bx, tl.by, tl.bz, tl.cx, tl.cy, tl.cz},
+                        nt, {tl.ox, tl.oy, tl.oz, tl.t});
+  // (No direction where the triangle is seen edge on; no light where Lambert's f is 0; no ray where the direction
+  // leaves the light's own surface.)
+  for (std::size_t k = 0; k < nt; ++k)
+    if (tl.solidAnglePdf[k] > 0 && tl.useful[k] != 0 && tl.t[k] < kInfinity)
+      q.shadows.push(Ray{Vec3(tl.ox[k], tl.oy[k], tl.oz[k]), Vec3(tl.wx[k], tl.wy[k], tl.wz[k]), 0, tl.t[k],
+                         q.hit[tl.path[k]].time},
+                     Color(tl.lightR[k], tl.lightG[k], tl.lightB[k]), paths.slot[tl.path[k]]);
+
   diffuseBounces({q.nx, q.ny, q.nz, q.dx, q.dy, q.dz, q.u1, q.u2}, nd, {q.wx, q.wy, q.wz, q.cosTheta, q.pdf});
   for (std::size_t k = 0; k < nd; ++k) {
     const std::uint32_t i = q.diffuse[k];
@@ -583,6 +699,15 @@ void renderWavefront(const Stages& st, Queues& q, const PrimaryRays& primary, st
 }
 /// [wavefront]
 
+// Whether some triangle of the scene emits light (and so may be a light sample's target).
+bool triangleEmits(const Scene& scene)
+{
+  for (std::size_t k = 0; k < scene.triangles.size(); ++k)
+    if (scene.materials[std::size_t(scene.materialOf(int(scene.spheres.size() + k)))].isEmissive())
+      return true;
+  return false;
+}
+
 int main(int argc, char** argv)
 {
   /// [chapter]
@@ -599,7 +724,7 @@ int main(int argc, char** argv)
                                         kGuideOption,
                                         {.name = "--wavefront",
                                          .kind = OptionKind::Integer,
-                                         .help = "most paths in flight at once per thread (about 1 KB of queues each)",
+                                         .help = "most paths in flight at once per thread (1 to 2 KB of queues each)",
                                          .defaultValue = "4096",
                                          .min = 1,
                                          .max = 1 << 24}}};
@@ -621,7 +746,7 @@ int main(int argc, char** argv)
     GuideLanes guide(lights);
     const auto stages = std::make_shared<const Stages>(
         Stages{scene, std::move(lights), std::move(guide), planScene(scene, chapter.uses).lightSampling(), heuristic,
-               sphereKernels, SphereList::from(scene.spheres)});
+               sphereKernels, SphereList::from(scene.spheres), triangleEmits(scene)});
     // Each thread of the render gets its own queues.
     auto workers = [stages]() -> WavefrontFunction {
       return [stages, queues = std::make_shared<Queues>()](const Scene&, const PrimaryRays& primary,
