@@ -5,7 +5,8 @@
 # on one core, and prints the medians of the CPU seconds (user + sys, /usr/bin/time), of the pair-by-pair ratios and
 # of each chapter's million rays a second (its --stats: rays traced over the render's seconds); then chapter 16 on 2
 # threads against 1 (wall seconds).
-# Usage: tools/wavefront_bench.sh [BUILD_DIR] [RUNS]   (default: build, 5; a release build: cmake --preset release)
+# Usage: [CORE=N] tools/wavefront_bench.sh [BUILD_DIR] [RUNS]   (default: build, 5; a release build: cmake --preset
+# release; CORE: below)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
@@ -17,14 +18,21 @@ for program in "$ch8" "$ch16"; do
 done
 [ -x /usr/bin/time ] || { echo "wavefront_bench: needs /usr/bin/time (Debian's package time)" >&2; exit 2; }
 
-# The one-thread runs all go to one core (the last this script may use), where taskset is there: the cores of a
-# virtual machine need not be equally fast (on the one docs/benchmarks.md was measured on, one took 1.3 times as
-# long), and runs that land on either at random widen the ratios' spread (there, on the Cornell box, 0.35 to 0.63
-# over nine pairs left to the scheduler, 0.38 to 0.52 over nine pinned, in the next call).
+# The one-thread runs all go to one core, where taskset is there: the cores of a virtual machine need not be equally
+# fast (on the one docs/benchmarks.md was measured on, one took 1.3 times as long), and runs that land on either at
+# random widen the ratios' spread (there, on the Cornell box, 0.35 to 0.63 over nine pairs left to the scheduler,
+# 0.38 to 0.52 over nine pinned, in the next call). CORE=N chooses that core (say, the faster of a machine whose
+# other core a neighbour's load slows now and then); by default it is the last this script may use. (Pinning the
+# whole script with taskset instead would put the two-thread runs on one core too.)
 pin=()
 if command -v taskset > /dev/null; then
-  core=$(awk '/^Cpus_allowed_list/ {n = split($2, c, /[-,]/); print c[n]}' /proc/self/status 2> /dev/null || true)
+  last=$(awk '/^Cpus_allowed_list/ {n = split($2, c, /[-,]/); print c[n]}' /proc/self/status 2> /dev/null || true)
+  core=${CORE:-$last}
   [ -n "$core" ] && pin=(taskset -c "$core")
+  if [ -n "${CORE:-}" ] && ! taskset -c "$CORE" true 2> /dev/null; then
+    echo "wavefront_bench: CORE=$CORE is not a core this script may run on" >&2
+    exit 2
+  fi
 fi
 
 # seconds COMMAND...: the command's user + sys CPU seconds (or, with WALL=1, its wall seconds); with PIN=1, on the
