@@ -866,3 +866,26 @@ LightSample sampleLight(const Geometry* g, const Lights* l, __global const float
   ls.tmax = t;
   return ls;
 }
+
+// ---- A work-group's prefix sums (stream compaction: where each work-item's entries go among its group's) ---------
+
+/// [scan]
+// The sum of `value` over the work-items of the group before this one (an exclusive scan), and over the whole group
+// in *total: Hillis and Steele's scan, log2(group size) steps in which each work-item adds in the partial sum that ends
+// 1, 2, 4, ... places before it. `partial`: local memory for one number a work-item. Every work-item of the group
+// must call it (it waits at barriers).
+uint groupExclusiveScan(const uint value, __local uint* partial, uint* total)
+{
+  const uint k = get_local_id(0), size = get_local_size(0);
+  partial[k] = value;
+  barrier(CLK_LOCAL_MEM_FENCE);
+  for (uint offset = 1; offset < size; offset *= 2) {
+    const uint earlier = k >= offset ? partial[k - offset] : 0;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    partial[k] += earlier;
+    barrier(CLK_LOCAL_MEM_FENCE);
+  }
+  *total = partial[size - 1];
+  return partial[k] - value;
+}
+/// [scan]

@@ -213,7 +213,8 @@ public:
   DeviceWavefront(const opencl::DeviceInfo& device, const Scene& scene, bool sampleLights, MisHeuristic heuristic,
                   std::size_t capacity)
       : context_(device.device), queue_(context_, device.device),
-        program_(opencl::buildProgram(context_, device.device, opencl::kernelSource())),
+        program_(opencl::buildProgram(context_, device.device, opencl::kernelSource(),
+                                      "-D GROUP_SIZE=" + std::to_string(kGroupSize))),
         scene_(context_, scene, sampleLights), power_(heuristic == MisHeuristic::Power),
         paths_{PathBuffers(context_, capacity), PathBuffers(context_, capacity)},
         keys_(context_, CL_MEM_READ_ONLY, capacity * sizeof(cl_int4)),
@@ -333,7 +334,8 @@ public:
 
 private:
   // One work-item a path, in work-groups of a fixed size: the kernels ignore the items past n. (Left to the driver,
-  // the group size follows n, and PoCL compiles the kernel again for every new size: minutes of compiling.)
+  // the group size follows n, and PoCL compiles the kernel again for every new size: minutes of compiling. Shade's
+  // scan is built for this size, as GROUP_SIZE, and asks for it.)
   void launch(cl::Kernel& kernel, cl_uint n)
   {
     const cl_uint groups = (n + kGroupSize - 1) / kGroupSize;

@@ -77,29 +77,31 @@ __kernel void extend(GEOMETRY_ARGS, const uint n, __global const float4* origin,
 /// [extend]
 
 /// [shade]
+// What shade makes of one path: whether it goes on, with its next ray and state, and whether it sends a shadow ray.
+typedef struct {
+  int goesOn, hasShadow;
+  float4 origin, direction, beta, from; // the next round's entry, as the path queue holds it
+  ulong2 rng;
+  float4 shadowOrigin, shadowDirection, shadowLight;
+} Shaded;
+
 // Stage 3, shade: at every path's hit, what chapter 8's loop does at a vertex. Emission found by the BSDF's ray
 // (weighted against light sampling); a light sample, whose shadow ray goes to connect's queue with the light it
-// would bring; the BSDF sample that continues the path; Russian roulette. A path that goes on is appended to the
-// next round's queue (an atomic counter hands out the places: any order, as each path's numbers are its own).
-__kernel void shade(GEOMETRY_ARGS, __global const float4* materials, __global const int4* lightInfo,
-                    __global const float* lightCdf, __global const float* lightProbability,
-                    __global const float4* pointLights, const int lightCount, __global const float4* vertexNormals,
-                    __global const uchar* smooth, const int hasNormals, const float4 background,
-                    __global const float4* environment, const float4 environmentInfo, const int bounce,
-                    const int maxDepth, const int power, const uint n,
-                    // this round's paths and their hits
-                    __global const float4* origin, __global const float4* direction, __global const float4* beta,
-                    __global const float4* from, __global const ulong2* rng, __global const uint* slot,
-                    __global const float* hitT, __global const int* hitPrimitive,
-                    // the next round's paths, the shadow rays, and where the counts go
-                    __global float4* nextOrigin, __global float4* nextDirection, __global float4* nextBeta,
-                    __global float4* nextFrom, __global ulong2* nextRng, __global uint* nextSlot,
-                    __global float4* shadowOrigin, __global float4* shadowDirection, __global float4* shadowLight,
-                    __global uint* shadowSlot, __global uint* counts, __global float4* radiance)
+// would bring; the BSDF sample that continues the path; Russian roulette. This is one path's part (path i); the
+// kernel below appends what it makes to the queues.
+Shaded shadePath(GEOMETRY_ARGS, __global const float4* materials, __global const int4* lightInfo,
+                 __global const float* lightCdf, __global const float* lightProbability,
+                 __global const float4* pointLights, const int lightCount, __global const float4* vertexNormals,
+                 __global const uchar* smooth, const int hasNormals, const float4 background,
+                 __global const float4* environment, const float4 environmentInfo, const int bounce, const int maxDepth,
+                 const int power, const uint i, __global const float4* origin, __global const float4* direction,
+                 __global const float4* beta, __global const float4* from, __global const ulong2* rng,
+                 __global const uint* slot, __global const float* hitT, __global const int* hitPrimitive,
+                 __global float4* radiance)
 {
-  const uint i = get_global_id(0);
-  if (i >= n)
-    return;
+  Shaded out;
+  out.goesOn = 0;
+  out.hasShadow = 0;
   MAKE_GEOMETRY(g);
   Lights lights;
   lights.info = lightInfo;
@@ -122,7 +124,7 @@ __kernel void shade(GEOMETRY_ARGS, __global const float4* materials, __global co
   const int p = hitPrimitive[i];
   if (p < 0) {
     radiance[s] += (float4)(b * escapedRadiance(environment, environmentInfo, background.xyz, d), 0.0f);
-    return;
+    return out;
   }
   // The hit record (Scene::hitAt): a sphere's point re-projected, a triangle's from its barycentrics.
   SurfacePoint hit;
@@ -156,12 +158,12 @@ __kernel void shade(GEOMETRY_ARGS, __global const float4* materials, __global co
          (specularBounce ? 1.0f : misWeight(power, bsdfPdfPrev, lightPdf(&g, &lights, from[i].xyz, p, hit.point)));
   if (bounce == maxDepth) {
     radiance[s] += (float4)(L, 0.0f);
-    return;
+    return out;
   }
   const Frame frame = frameFromNormal(normal);
   const float3 wo = toLocal(&frame, -d);
 
-  // Light sampling, weighted against the chance that the BSDF chose the same direction; its shadow ray is queued.
+  // Light sampling, weighted against the chance that the BSDF chose the same direction, and its shadow ray.
   if (m.type != kMirror && m.type != kGlass) {
     const float uLight = next1D(&r);
     const float u1 = next1D(&r);
@@ -174,11 +176,10 @@ __kernel void shade(GEOMETRY_ARGS, __global const float4* materials, __global co
         const float3 f = bsdfEval(&m, wo, wi);
         if (f.x != 0.0f || f.y != 0.0f || f.z != 0.0f) {
           const float weight = ls.delta ? 1.0f : misWeight(power, ls.pdf, bsdfPdf(&m, wo, wi));
-          const uint k = atomic_inc(&counts[1]);
-          shadowOrigin[k] = (float4)(ls.origin, ls.tmax);
-          shadowDirection[k] = (float4)(ls.wi, 0.0f);
-          shadowLight[k] = (float4)(b * f * fabs(wi.z) * ls.Li * (weight / ls.pdf), 0.0f);
-          shadowSlot[k] = s;
+          out.hasShadow = 1;
+          out.shadowOrigin = (float4)(ls.origin, ls.tmax);
+          out.shadowDirection = (float4)(ls.wi, 0.0f);
+          out.shadowLight = (float4)(b * f * fabs(wi.z) * ls.Li * (weight / ls.pdf), 0.0f);
         }
       }
     }
@@ -191,27 +192,86 @@ __kernel void shade(GEOMETRY_ARGS, __global const float4* materials, __global co
   const float2 u = (float2)(u1, next1D(&r));
   const BsdfSample bs = bsdfSample(&m, wo, u, uChoice);
   if (!(bs.pdf > 0.0f))
-    return;
+    return out;
   b *= bs.f * fabs(bs.wi.z) / bs.pdf;
   if (b.x == 0.0f && b.y == 0.0f && b.z == 0.0f)
-    return; // nothing more can reach the eye along this path
+    return out; // nothing more can reach the eye along this path
   // Russian roulette: go on with probability q, and divide by q so that the expectation is unchanged.
   if (bounce >= kRouletteMinBounces) {
     const float q = fmin(kRouletteMaxSurvival, fmax(b.x, fmax(b.y, b.z)));
     if (next1D(&r) >= q)
-      return;
+      return out;
     b /= q;
   }
   const float3 wi = toWorld(&frame, bs.wi);
-  const uint k = atomic_inc(&counts[0]);
-  nextOrigin[k] = (float4)(offsetRayOrigin(hit.point, hit.error, hit.normal, wi), 0.0f);
-  nextDirection[k] = (float4)(wi, 0.0f);
-  nextBeta[k] = (float4)(b, bs.pdf);
-  nextFrom[k] = (float4)(hit.point, bs.specular ? 1.0f : 0.0f);
-  nextRng[k] = (ulong2)(r.state, r.inc);
-  nextSlot[k] = s;
+  out.goesOn = 1;
+  out.origin = (float4)(offsetRayOrigin(hit.point, hit.error, hit.normal, wi), 0.0f);
+  out.direction = (float4)(wi, 0.0f);
+  out.beta = (float4)(b, bs.pdf);
+  out.from = (float4)(hit.point, bs.specular ? 1.0f : 0.0f);
+  out.rng = (ulong2)(r.state, r.inc);
+  return out;
 }
 /// [shade]
+
+/// [append]
+// The kernel: every path's part, then the appends. A work-group finds where each of its paths that go on and each
+// of its shadow rays goes among the group's (a scan of the two flags, packed into one number), then takes its places
+// in the two queues with one atomic add a queue. Within a group the queues keep the paths' order; the groups come
+// in any order, which changes nothing, as each path's numbers are its own. (One global atomic a work-item would
+// have the work-items of both cores take the counters' cache line in turn: see the measurements page.)
+__kernel __attribute__((reqd_work_group_size(GROUP_SIZE, 1, 1))) void
+shade(GEOMETRY_ARGS, __global const float4* materials, __global const int4* lightInfo, __global const float* lightCdf,
+      __global const float* lightProbability, __global const float4* pointLights, const int lightCount,
+      __global const float4* vertexNormals, __global const uchar* smooth, const int hasNormals,
+      const float4 background, __global const float4* environment, const float4 environmentInfo, const int bounce,
+      const int maxDepth, const int power, const uint n,
+      // this round's paths and their hits
+      __global const float4* origin, __global const float4* direction, __global const float4* beta,
+      __global const float4* from, __global const ulong2* rng, __global const uint* slot, __global const float* hitT,
+      __global const int* hitPrimitive,
+      // the next round's paths, the shadow rays, and where the counts go
+      __global float4* nextOrigin, __global float4* nextDirection, __global float4* nextBeta, __global float4* nextFrom,
+      __global ulong2* nextRng, __global uint* nextSlot, __global float4* shadowOrigin,
+      __global float4* shadowDirection, __global float4* shadowLight, __global uint* shadowSlot,
+      __global uint* counts, __global float4* radiance)
+{
+  __local uint partial[GROUP_SIZE], groupBase[2];
+  const uint i = get_global_id(0);
+  Shaded out;
+  out.goesOn = out.hasShadow = 0;
+  if (i < n) // (every work-item, past n too, must reach the barriers)
+    out = shadePath(spheres, sphereMaterials, vertices, triangles, nodes, leafSpheres, leafTriangles, outside,
+                    sphereCount, triangleCount, nodeCount, outsideCount, materials, lightInfo, lightCdf,
+                    lightProbability, pointLights, lightCount, vertexNormals, smooth, hasNormals, background,
+                    environment, environmentInfo, bounce, maxDepth, power, i, origin, direction, beta, from, rng,
+                    slot, hitT, hitPrimitive, radiance);
+  // (The two flags in one number, the paths' in the low 16 bits: a group's sums are at most GROUP_SIZE, below 2^16.)
+  uint total;
+  const uint before = groupExclusiveScan((uint)out.goesOn | (uint)out.hasShadow << 16, partial, &total);
+  if (get_local_id(0) == 0) {
+    groupBase[0] = atomic_add(&counts[0], total & 0xffffu);
+    groupBase[1] = atomic_add(&counts[1], total >> 16);
+  }
+  barrier(CLK_LOCAL_MEM_FENCE);
+  if (out.goesOn) {
+    const uint k = groupBase[0] + (before & 0xffffu);
+    nextOrigin[k] = out.origin;
+    nextDirection[k] = out.direction;
+    nextBeta[k] = out.beta;
+    nextFrom[k] = out.from;
+    nextRng[k] = out.rng;
+    nextSlot[k] = slot[i];
+  }
+  if (out.hasShadow) {
+    const uint k = groupBase[1] + (before >> 16);
+    shadowOrigin[k] = out.shadowOrigin;
+    shadowDirection[k] = out.shadowDirection;
+    shadowLight[k] = out.shadowLight;
+    shadowSlot[k] = slot[i];
+  }
+}
+/// [append]
 
 /// [connect]
 // Stage 4, connect: every shadow ray of the round (any hit), blocked or not.

@@ -64,6 +64,14 @@ __kernel void testBsdf(__global const float4* materials, __global const float4* 
   wi[i] = (float4)(bs.wi, bs.pdf);
   f[i] = (float4)(bs.f, (float)bs.specular);
 }
+__kernel void testScan(__global const uint* value, __global uint* before, __global uint* total)
+{
+  __local uint partial[256];
+  const uint i = get_global_id(0);
+  uint sum;
+  before[i] = groupExclusiveScan(value[i], partial, &sum);
+  total[i] = sum;
+}
 )";
 
 // The device, and the building blocks with the test kernels built for it.
@@ -420,4 +428,37 @@ TEST_CASE("opencl blocks: BSDF sampling on the device agrees with bsdfSample for
             << ", worst relative error of f and pdf " << worstValue << ", " << boundary << " at a boundary\n";
   CHECK(samples > kCount / 2);
   CHECK(double(boundary) <= kMaxBoundaryShare * kCount);
+}
+
+TEST_CASE("opencl blocks: a work-group's scan gives each work-item the sum before it in its group, and the group's")
+{
+  // Random numbers of up to 2^16 + 1 (two flags packed, as shade packs them), in groups of several sizes (shade's
+  // 64, and others, not all powers of 2); each group's prefix sums against a loop on the host.
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<cl_uint> flag(0, 1);
+  TestDevice& dev = device();
+  for (const std::size_t group : {std::size_t(64), std::size_t(1), std::size_t(2), std::size_t(37), std::size_t(256)}) {
+    const std::size_t n = group * 40;
+    std::vector<cl_uint> value(n);
+    for (cl_uint& v : value)
+      v = flag(rng) | flag(rng) << 16;
+    const cl::Buffer bv = dev.input(value), bb = dev.output(n * sizeof(cl_uint)), bt = dev.output(n * sizeof(cl_uint));
+    cl::Kernel k(dev.program, "testScan");
+    k.setArg(0, bv), k.setArg(1, bb), k.setArg(2, bt);
+    dev.queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(n), cl::NDRange(group));
+    dev.queue.finish();
+    const std::vector<cl_uint> before = dev.read<cl_uint>(bb, n), total = dev.read<cl_uint>(bt, n);
+    std::size_t wrong = 0;
+    for (std::size_t first = 0; first < n; first += group) {
+      cl_uint sum = 0;
+      for (std::size_t i = first; i < first + group; ++i) {
+        wrong += before[i] != sum;
+        sum += value[i];
+      }
+      for (std::size_t i = first; i < first + group; ++i)
+        wrong += total[i] != sum;
+    }
+    INFO("groups of " << group);
+    CHECK(wrong == 0);
+  }
 }
