@@ -47,7 +47,7 @@ __kernel void testBox(__global const WideNode* nodes, __global const float4* o, 
                       __global float* entry)
 {
   const uint i = get_global_id(0);
-  entry[i] = boxEntry(&nodes[i], 0, o[i].xyz, 1.0f / d[i].xyz, 0.0f, INFINITY);
+  vstore8(boxEntries(&nodes[i], o[i].xyz, 1.0f / d[i].xyz, 0.0f, INFINITY), i, entry);
 }
 __kernel void testEnvironment(__global const float4* texels, const float4 info, __global const float4* d,
                               __global float4* out)
@@ -243,6 +243,8 @@ TEST_CASE("opencl blocks: ray-triangle on the device agrees with intersectTriang
 
 TEST_CASE("opencl blocks: the box test never culls a box the exact slab test enters, and misses what is clearly missed")
 {
+  // Nodes of 1 to 8 random boxes, every box tested in its lane; each ray is aimed near one of its node's boxes (or
+  // along an axis).
   std::mt19937 rng(19);
   std::uniform_real_distribution<float> pos(-5, 5), size(0.01f, 3);
   std::vector<BvhWideNode> nodes(kCount);
@@ -250,18 +252,21 @@ TEST_CASE("opencl blocks: the box test never culls a box the exact slab test ent
   for (std::size_t i = 0; i < kCount; ++i) {
     BvhWideNode& n = nodes[i];
     n = BvhWideNode{};
-    n.boxes = 1;
-    for (int a = 0; a < 3; ++a) {
-      const float lo = pos(rng) / 2;
-      n.bounds[a * BvhWideNode::kWidth] = lo;
-      n.bounds[(3 + a) * BvhWideNode::kWidth] = lo + size(rng);
-    }
+    n.boxes = std::uint32_t(1 + i % BvhWideNode::kWidth);
+    for (std::uint32_t k = 0; k < BvhWideNode::kWidth; ++k)
+      for (int a = 0; a < 3; ++a) {
+        // (A slot past the node's boxes holds a box around everything, which the test must not enter.)
+        const float lo = k < n.boxes ? pos(rng) / 2 : -100;
+        n.bounds[a * BvhWideNode::kWidth + k] = lo;
+        n.bounds[(3 + a) * BvhWideNode::kWidth + k] = k < n.boxes ? lo + size(rng) : 100;
+      }
     o[i] = f4(pos(rng), pos(rng), pos(rng));
     d[i] = unitFloat(rng);
-    if (i % 2 == 0) { // half of them aimed at a point near the box: some enter it, some pass close by
+    if (i % 2 == 0) { // half of them aimed at a point near a box: some enter it, some pass close by
+      const std::size_t k = (i / 2) % n.boxes;
       Vec3 target;
       for (int a = 0; a < 3; ++a) {
-        const float lo = n.bounds[a * BvhWideNode::kWidth], hi = n.bounds[(3 + a) * BvhWideNode::kWidth];
+        const float lo = n.bound(0, a, int(k)), hi = n.bound(1, a, int(k));
         target[a] = lo + (hi - lo) * (std::uniform_real_distribution<float>(-0.3f, 1.3f)(rng));
       }
       const Vec3 dir = glm::normalize(target - v3(o[i]));
@@ -270,40 +275,50 @@ TEST_CASE("opencl blocks: the box test never culls a box the exact slab test ent
     if (i % 10 == 0) // some directions along an axis (1/d infinite in the others)
       d[i] = f4(0, i % 20 == 0 ? 1.0f : -1.0f, 0);
   }
+  const std::size_t width = BvhWideNode::kWidth;
   TestDevice& dev = device();
-  const cl::Buffer bn = dev.input(nodes), bo = dev.input(o), bd = dev.input(d), out = dev.output(kCount * sizeof(float));
+  const cl::Buffer bn = dev.input(nodes), bo = dev.input(o), bd = dev.input(d);
+  const cl::Buffer out = dev.output(kCount * width * sizeof(float));
   dev.run("testBox", kCount, {&bn, &bo, &bd, &out});
-  const std::vector<float> entry = dev.read<float>(out, kCount);
-  std::size_t entered = 0, culled = 0, missedClearly = 0, keptWrongly = 0;
-  for (std::size_t i = 0; i < kCount; ++i) {
-    // The exact slab test in double: the interval [tNear, tFar] ∩ [0, ∞) inside all three slabs.
-    double tNear = 0, tFar = INFINITY, gap = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double lo = nodes[i].bound(0, a, 0), hi = nodes[i].bound(1, a, 0), oa = o[i].s[a], da = d[i].s[a];
-      if (da == 0) {
-        if (oa < lo || oa > hi)
-          tNear = INFINITY, gap = INFINITY;
+  const std::vector<float> entry = dev.read<float>(out, kCount * width);
+  std::size_t entered = 0, culled = 0, missedClearly = 0, keptWrongly = 0, emptyKept = 0;
+  for (std::size_t i = 0; i < kCount; ++i)
+    for (std::size_t k = 0; k < width; ++k) {
+      const float e = entry[i * width + k];
+      if (k >= nodes[i].boxes) { // no such child
+        emptyKept += e != INFINITY;
         continue;
       }
-      const double t0 = (lo - oa) / da, t1 = (hi - oa) / da;
-      tNear = std::max(tNear, std::min(t0, t1));
-      tFar = std::min(tFar, std::max(t0, t1));
+      // The exact slab test in double: the interval [tNear, tFar] ∩ [0, ∞) inside all three slabs.
+      double tNear = 0, tFar = INFINITY, gap = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double lo = nodes[i].bound(0, a, int(k)), hi = nodes[i].bound(1, a, int(k));
+        const double oa = o[i].s[a], da = d[i].s[a];
+        if (da == 0) {
+          if (oa < lo || oa > hi)
+            tNear = INFINITY, gap = INFINITY;
+          continue;
+        }
+        const double t0 = (lo - oa) / da, t1 = (hi - oa) / da;
+        tNear = std::max(tNear, std::min(t0, t1));
+        tFar = std::min(tFar, std::max(t0, t1));
+      }
+      if (gap == 0)
+        gap = tNear - tFar;
+      if (tNear <= tFar) {
+        ++entered;
+        culled += e == INFINITY;
+      } else if (gap > 1e-3 * (1 + std::abs(tNear))) {
+        ++missedClearly;
+        keptWrongly += e != INFINITY;
+      }
     }
-    if (gap == 0)
-      gap = tNear - tFar;
-    if (tNear <= tFar) {
-      ++entered;
-      culled += entry[i] == INFINITY;
-    } else if (gap > 1e-3 * (1 + std::abs(tNear))) {
-      ++missedClearly;
-      keptWrongly += entry[i] != INFINITY;
-    }
-  }
   std::cout << "box test: " << entered << " boxes entered (" << culled << " culled), " << missedClearly
-            << " clearly missed (" << keptWrongly << " kept)\n";
+            << " clearly missed (" << keptWrongly << " kept), " << emptyKept << " empty slots kept\n";
   CHECK(entered > kCount / 10);
   CHECK(missedClearly > kCount / 10);
   CHECK(culled == 0);
+  CHECK(emptyKept == 0);
   CHECK(keptWrongly == 0);
 }
 
