@@ -7,6 +7,7 @@
 #include <hwy/highway.h>
 
 #include "render/ray_stream.h"
+#include "shading/bsdf.h"
 #include "scene/light_sampling.h"
 
 #include <algorithm>
@@ -223,6 +224,16 @@ HWY_INLINE void sinCos2PiLanes(D d, V u, V& sinOut, V& cosOut)
   cosOut = hn::Sub(hn::Mul(a, co), hn::Mul(b, s));
 }
 
+// Local direction (x, y, z) in the frame (s, t, n) to world space, x·s + y·t + z·n (Frame::toWorld), stored as a
+// bounce's direction.
+HWY_INLINE void storeWorld(D d, V x, V y, V z, const Tangents& f, V nx, V ny, V nz, const DiffuseBounceOutput& out,
+                           std::size_t i, std::size_t n)
+{
+  storeLanes(d, hn::Add(hn::Add(hn::Mul(x, f.sx), hn::Mul(y, f.tx)), hn::Mul(z, nx)), out.wx.data(), i, n);
+  storeLanes(d, hn::Add(hn::Add(hn::Mul(x, f.sy), hn::Mul(y, f.ty)), hn::Mul(z, ny)), out.wy.data(), i, n);
+  storeLanes(d, hn::Add(hn::Add(hn::Mul(x, f.sz), hn::Mul(y, f.tz)), hn::Mul(z, nz)), out.wz.data(), i, n);
+}
+
 void DiffuseBounces(const DiffuseBounceInput& in, std::size_t count, const DiffuseBounceOutput& out)
 {
   const D d;
@@ -234,7 +245,6 @@ void DiffuseBounces(const DiffuseBounceInput& in, std::size_t count, const Diffu
     const V nx = load(in.nx), ny = load(in.ny), nz = load(in.nz);
     // The frame (Frame::fromNormal: Duff et al., without a branch).
     const Tangents f = tangentsAround(d, nx, ny, nz);
-    const V sx = f.sx, sy = f.sy, sz = f.sz, tx = f.tx, ty = f.ty, tz = f.tz;
     // wo.z = (−d)·n.
     const V woz = hn::Add(hn::Add(hn::Mul(hn::Neg(load(in.dx)), nx), hn::Mul(hn::Neg(load(in.dy)), ny)),
                           hn::Mul(hn::Neg(load(in.dz)), nz));
@@ -249,10 +259,7 @@ void DiffuseBounces(const DiffuseBounceInput& in, std::size_t count, const Diffu
     // The pdf |cosθ|/π where wo and wi are on one side (and wo is not in the surface), else 0: no sample.
     const M valid = hn::And(hn::Ne(woz, zero), hn::Gt(hn::Mul(woz, wiz), zero));
     const V pdf = hn::IfThenElseZero(valid, hn::Mul(hn::Abs(wiz), hn::Set(d, kInvPi)));
-    // To world space: x·s + y·t + z·n.
-    storeLanes(d, hn::Add(hn::Add(hn::Mul(wix, sx), hn::Mul(wiy, tx)), hn::Mul(wiz, nx)), out.wx.data(), i, n);
-    storeLanes(d, hn::Add(hn::Add(hn::Mul(wix, sy), hn::Mul(wiy, ty)), hn::Mul(wiz, ny)), out.wy.data(), i, n);
-    storeLanes(d, hn::Add(hn::Add(hn::Mul(wix, sz), hn::Mul(wiy, tz)), hn::Mul(wiz, nz)), out.wz.data(), i, n);
+    storeWorld(d, wix, wiy, wiz, f, nx, ny, nz, out, i, n);
     storeLanes(d, wiz, out.cosTheta.data(), i, n);
     storeLanes(d, pdf, out.pdf.data(), i, n);
   }
@@ -722,8 +729,83 @@ void PointLightRays(const PointLightInput& in, std::size_t count, const PointLig
 }
 /// [pointLightRays]
 
-/// [diffuseLightSamples]
-void DiffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const DiffuseLightOutput& out)
+// std::pow(x, y) lane by lane, in the lanes `which` holds (0 in the others): libm's pow, whose bits no polynomial of
+// ours would give, as the scalar code calls it.
+HWY_INLINE V powLanes(D d, V x, V y, M which)
+{
+  if (hn::AllFalse(d, which))
+    return hn::Zero(d);
+  HWY_ALIGN Real base[hn::MaxLanes(d)], power[hn::MaxLanes(d)], flag[hn::MaxLanes(d)];
+  hn::Store(x, d, base);
+  hn::Store(y, d, power);
+  hn::Store(hn::IfThenElseZero(which, hn::Set(d, Real(1))), d, flag);
+  for (std::size_t j = 0; j < hn::Lanes(d); ++j)
+    base[j] = flag[j] != 0 ? std::pow(base[j], power[j]) : Real(0);
+  return hn::Load(d, base);
+}
+
+// The normalised Phong lobe at wo and wi (shading frame) in the lanes `which` holds: phongEval's factor of ρ_s,
+// (n + 2)/(2π) cosⁿα, and phongPdf, (n + 1)/(2π) cosⁿα, with cosα = wi·reflectLocal(wo); both 0 where wo and wi lie
+// on two sides, where cosα ≤ 0, where n is above kMaxPhongExponent, and outside `which`.
+struct PhongLanes {
+  V fScale, pdf;
+};
+HWY_INLINE PhongLanes phongLanes(D d, const Vec3Lanes& wo, const Vec3Lanes& wi, V exponent, M which)
+{
+  const V zero = hn::Zero(d), twoPi = hn::Set(d, 2 * kPi);
+  const V cosAlpha = dotLanes(wi, {hn::Neg(wo.x), hn::Neg(wo.y), wo.z});
+  const M lobe = hn::And(hn::And(which, hn::Le(exponent, hn::Set(d, kMaxPhongExponent))),
+                         hn::And(hn::Gt(hn::Mul(wo.z, wi.z), zero), hn::Gt(cosAlpha, zero)));
+  const V power = powLanes(d, cosAlpha, exponent, lobe);
+  return {hn::IfThenElseZero(lobe, hn::Mul(hn::Div(hn::Add(exponent, hn::Set(d, Real(2))), twoPi), power)),
+          hn::IfThenElseZero(lobe, hn::Mul(hn::Div(hn::Add(exponent, hn::Set(d, Real(1))), twoPi), power))};
+}
+
+/// [glossyBounces]
+void GlossyBounces(const GlossyBounceInput& glossy, std::size_t count, const GlossyBounceOutput& out)
+{
+  const D d;
+  const std::size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d), one = hn::Set(d, Real(1));
+  const DiffuseBounceInput& in = glossy.hit;
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
+    const V nx = load(in.nx), ny = load(in.ny), nz = load(in.nz), exponent = load(glossy.exponent);
+    const Tangents f = tangentsAround(d, nx, ny, nz);
+    const Vec3Lanes minusD{hn::Neg(load(in.dx)), hn::Neg(load(in.dy)), hn::Neg(load(in.dz))};
+    const Vec3Lanes wo{dotLanes(minusD, {f.sx, f.sy, f.sz}), dotLanes(minusD, {f.tx, f.ty, f.tz}),
+                       dotLanes(minusD, {nx, ny, nz})};
+    // samplePhongLobe: cosα = (1 − u₁)^(1/(n + 1)), sinα, and the azimuth 2πu₂, around r = reflectLocal(wo).
+    const V cosAlpha = powLanes(d, hn::Sub(one, load(in.u1)), hn::Div(one, hn::Add(exponent, one)), hn::Eq(one, one));
+    const V sinAlpha = hn::Sqrt(maxZero(d, hn::Sub(one, hn::Mul(cosAlpha, cosAlpha))));
+    V sinPhi, cosPhi;
+    sinCos2PiLanes(d, load(in.u2), sinPhi, cosPhi);
+    const V lx = hn::Mul(sinAlpha, cosPhi), ly = hn::Mul(sinAlpha, sinPhi);
+    const Vec3Lanes r{hn::Neg(wo.x), hn::Neg(wo.y), wo.z};
+    const Tangents g = tangentsAround(d, r.x, r.y, r.z);
+    // Frame::fromNormal(r).toWorld, then glm::normalize: v·(1/√(v·v)).
+    const Vec3Lanes v{hn::Add(hn::Add(hn::Mul(lx, g.sx), hn::Mul(ly, g.tx)), hn::Mul(cosAlpha, r.x)),
+                      hn::Add(hn::Add(hn::Mul(lx, g.sy), hn::Mul(ly, g.ty)), hn::Mul(cosAlpha, r.y)),
+                      hn::Add(hn::Add(hn::Mul(lx, g.sz), hn::Mul(ly, g.tz)), hn::Mul(cosAlpha, r.z))};
+    const V inv = hn::Div(one, hn::Sqrt(dotLanes(v, v)));
+    const Vec3Lanes wi{hn::Mul(v.x, inv), hn::Mul(v.y, inv), hn::Mul(v.z, inv)};
+    // phongPdf and phongEval's factor; no sample where wo lies in the surface or the pdf is not > 0.
+    const PhongLanes phong = phongLanes(d, wo, wi, exponent, hn::Ne(wo.z, zero));
+    const M valid = hn::And(hn::Ne(wo.z, zero), hn::Gt(phong.pdf, zero));
+    storeWorld(d, wi.x, wi.y, wi.z, f, nx, ny, nz, out.bounce, i, n);
+    storeLanes(d, wi.z, out.bounce.cosTheta.data(), i, n);
+    storeLanes(d, hn::IfThenElseZero(valid, phong.pdf), out.bounce.pdf.data(), i, n);
+    storeLanes(d, phong.fScale, out.fScale.data(), i, n);
+  }
+}
+/// [glossyBounces]
+
+/// [surfaceLightSamples]
+// (kGlossy: some surfaces may be glossy. Without, the loop is Lambert's alone, as lean as before glossy surfaces
+// came into the lanes.)
+template <bool kGlossy>
+HWY_INLINE void surfaceLightLoop(const SurfaceLightInput& in, std::size_t count, const SurfaceLightOutput& out)
 {
   const D d;
   const std::size_t lanes = hn::Lanes(d);
@@ -739,10 +821,27 @@ void DiffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const D
     // Lambert: f = ρ/π and pdf |cosθi|/π where wo and wi are on one side, else 0.
     const auto sameSide = hn::Gt(hn::Mul(woz, wiz), zero);
     const V absCos = hn::Abs(wiz);
-    const V fR = hn::IfThenElseZero(sameSide, hn::Mul(load(in.rhoR), invPi));
-    const V fG = hn::IfThenElseZero(sameSide, hn::Mul(load(in.rhoG), invPi));
-    const V fB = hn::IfThenElseZero(sameSide, hn::Mul(load(in.rhoB), invPi));
-    const V bsdfPdf = hn::IfThenElseZero(sameSide, hn::Mul(absCos, invPi));
+    V fR = hn::IfThenElseZero(sameSide, hn::Mul(load(in.rhoR), invPi));
+    V fG = hn::IfThenElseZero(sameSide, hn::Mul(load(in.rhoG), invPi));
+    V fB = hn::IfThenElseZero(sameSide, hn::Mul(load(in.rhoB), invPi));
+    V bsdfPdf = hn::IfThenElseZero(sameSide, hn::Mul(absCos, invPi));
+    // Phong where the surface is glossy: wo and wi in the whole shading frame, f = ρ_s·fScale and phongPdf.
+    if constexpr (kGlossy) {
+      const V exponent = load(in.exponent);
+      const M glossy = hn::Ge(exponent, zero);
+      if (!hn::AllFalse(d, glossy)) {
+        const Tangents f = tangentsAround(d, nx, ny, nz);
+        const Vec3Lanes s{f.sx, f.sy, f.sz}, t{f.tx, f.ty, f.tz};
+        const Vec3Lanes minusD{hn::Neg(load(in.dx)), hn::Neg(load(in.dy)), hn::Neg(load(in.dz))};
+        const Vec3Lanes w{load(in.wx), load(in.wy), load(in.wz)};
+        const PhongLanes phong = phongLanes(d, {dotLanes(minusD, s), dotLanes(minusD, t), woz},
+                                            {dotLanes(w, s), dotLanes(w, t), wiz}, exponent, glossy);
+        fR = hn::IfThenElse(glossy, hn::Mul(load(in.rhoR), phong.fScale), fR);
+        fG = hn::IfThenElse(glossy, hn::Mul(load(in.rhoG), phong.fScale), fG);
+        fB = hn::IfThenElse(glossy, hn::Mul(load(in.rhoB), phong.fScale), fB);
+        bsdfPdf = hn::IfThenElse(glossy, phong.pdf, bsdfPdf);
+      }
+    }
     // The MIS weight of the light's pdf p against the BSDF's q: 1/(1 + (q/p)²) or 1/(1 + q/p) (light_sampling.h,
     // whose cases p = 0 and p = ∞ do not arise here: a light sample's pdf is finite and > 0, and 1 where p = ∞).
     const V pdf = load(in.pdf);
@@ -763,7 +862,14 @@ void DiffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const D
     storeLanes(d, hn::IfThenElseZero(useful, one), out.useful.data(), i, n);
   }
 }
-/// [diffuseLightSamples]
+void SurfaceLightSamples(const SurfaceLightInput& in, std::size_t count, const SurfaceLightOutput& out)
+{
+  if (in.exponent.empty())
+    surfaceLightLoop<false>(in, count, out);
+  else
+    surfaceLightLoop<true>(in, count, out);
+}
+/// [surfaceLightSamples]
 
 void GuideCells(const GuideCellGrid& grid, const Real* px, const Real* py, const Real* pz, std::size_t count,
                 SampleForestIndex* cell)
@@ -931,7 +1037,8 @@ HWY_EXPORT(TriangleLightDirections);
 HWY_EXPORT(ShadowRaysToSpheres);
 HWY_EXPORT(ShadowRaysToTriangles);
 HWY_EXPORT(TriangleHitPoints);
-HWY_EXPORT(DiffuseLightSamples);
+HWY_EXPORT(SurfaceLightSamples);
+HWY_EXPORT(GlossyBounces);
 HWY_EXPORT(PointLightRays);
 HWY_EXPORT(GuidedWarps);
 HWY_EXPORT(GuideCells);
@@ -1002,9 +1109,14 @@ void triangleLightDirections(const TriangleLightInput& in, std::size_t count, co
   HWY_DYNAMIC_DISPATCH(TriangleLightDirections)(in, count, out);
 }
 
-void diffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const DiffuseLightOutput& out)
+void surfaceLightSamples(const SurfaceLightInput& in, std::size_t count, const SurfaceLightOutput& out)
 {
-  HWY_DYNAMIC_DISPATCH(DiffuseLightSamples)(in, count, out);
+  HWY_DYNAMIC_DISPATCH(SurfaceLightSamples)(in, count, out);
+}
+
+void glossyBounces(const GlossyBounceInput& in, std::size_t count, const GlossyBounceOutput& out)
+{
+  HWY_DYNAMIC_DISPATCH(GlossyBounces)(in, count, out);
 }
 
 void pointLightRays(const PointLightInput& in, std::size_t count, const PointLightOutput& out)

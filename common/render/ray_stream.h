@@ -1,7 +1,7 @@
 /// @file ray_stream.h
 /// @brief Many rays at once, stored by coordinate (structure of arrays), and the kernels that work on them with one
-/// ray per SIMD lane: the nearest and any sphere of a flat list, and the cosine-weighted bounce of diffuse hits.
-/// The wavefront of chapter 16 is built of them.
+/// ray per SIMD lane: the nearest and any sphere of a flat list, the hit records, the light samples and their shadow
+/// rays, and the bounces of diffuse and glossy hits. The wavefront of chapter 16 is built of them.
 ///
 /// Why lanes across rays. One ray against one sphere is a short chain of arithmetic with nothing to do side by side;
 /// the same chain for eight or sixteen rays fills the vector registers. Stored by coordinate (all the origins' x,
@@ -13,9 +13,10 @@
 /// and benchmarks).
 ///
 /// The contract: each lane does, operation for operation, what the scalar code of the library does for one ray
-/// (intersectSphere over the list in order; lambertianSample and Frame), with the same IEEE operations in the same
-/// order and none fused (the build says -ffp-contract=off). So every kernel gives the scalar code's answer bit for
-/// bit, in every instruction set: tests/wavefront checks it on random rays.
+/// (intersectSphere over the list in order; lambertianSample, phongSample and Frame; ...), with the same IEEE
+/// operations in the same order and none fused (the build says -ffp-contract=off), and libm's own functions (pow,
+/// atan2, acos, sin and cos) called lane by lane where the scalar code calls them. So every kernel gives the scalar
+/// code's answer bit for bit, in every instruction set: tests/wavefront checks it on random rays.
 #pragma once
 
 #include "core/math.h"
@@ -107,6 +108,24 @@ struct DiffuseBounceOutput {
 /// direction turned to world space by toWorld: what chapter 8 computes for a diffuse bounce, bit for bit. pdf is 0
 /// where lambertianSample has no sample (wo in the surface, or a direction exactly in it): the path ends there.
 void diffuseBounces(const DiffuseBounceInput& in, std::size_t count, const DiffuseBounceOutput& out);
+
+/// Glossy hits stored by coordinate: what a diffuse hit has, and each surface's Phong exponent.
+struct GlossyBounceInput {
+  DiffuseBounceInput hit; ///< The shading normals, the incoming directions and the two uniform numbers.
+  std::span<const Real> exponent; ///< The Phong exponent, phongExponent(roughness), in [0, kMaxPhongExponent].
+};
+
+/// Where each glossy bounce goes: a diffuse bounce's numbers (its pdf phongPdf), and the factor of f.
+struct GlossyBounceOutput {
+  DiffuseBounceOutput bounce; ///< The world direction, its cosθ and its pdf (0 where the bounce failed: below).
+  std::span<Real> fScale; ///< f = ρ_s · fScale: (n + 2)/(2π) cosⁿα, as phongEval computes it.
+};
+
+/// For hits [0, count): phongSample(ρ_s, n, wo, (u1, u2)) in the frame Frame::fromNormal(normal), wo = toLocal(−d),
+/// its direction turned to world space by toWorld: chapter 8's glossy bounce, bit for bit (the lobe's cosine and
+/// cosⁿα through libm's pow, lane by lane). pdf is 0 where phongSample has no sample (wo in the surface, or a
+/// direction below it): the path ends there.
+void glossyBounces(const GlossyBounceInput& in, std::size_t count, const GlossyBounceOutput& out);
 
 /// Rays that hit spheres, stored by coordinate: each ray, its hit's t and the sphere.
 struct SphereHitInput {
@@ -278,8 +297,9 @@ struct GuideWarpOutput {
 /// nodes), twice: down to the leaf its numbers choose, then down to the leaf of the point, for its density.
 void guidedWarps(const SampleForest& forest, const GuideWarpInput& in, std::size_t count, const GuideWarpOutput& out);
 
-/// Light samples at diffuse surfaces, stored by coordinate: what the light brings if its shadow ray gets through.
-struct DiffuseLightInput {
+/// Light samples at Lambertian or glossy surfaces, stored by coordinate: what the light brings if its shadow ray gets
+/// through.
+struct SurfaceLightInput {
   std::span<const Real> nx; ///< The unit shading normals: x.
   std::span<const Real> ny; ///< The unit shading normals: y.
   std::span<const Real> nz; ///< The unit shading normals: z.
@@ -293,7 +313,7 @@ struct DiffuseLightInput {
   std::span<const Real> betaR; ///< The paths' throughputs: red.
   std::span<const Real> betaG; ///< The paths' throughputs: green.
   std::span<const Real> betaB; ///< The paths' throughputs: blue.
-  std::span<const Real> rhoR; ///< The surfaces' albedos: red.
+  std::span<const Real> rhoR; ///< The surfaces' albedos (a glossy surface's ρ_s): red.
   std::span<const Real> rhoG; ///< The surfaces' albedos: green.
   std::span<const Real> rhoB; ///< The surfaces' albedos: blue.
   std::span<const Real> leR; ///< The radiance arriving from the light (its Le): red.
@@ -303,20 +323,24 @@ struct DiffuseLightInput {
   /// The lights are points (delta lights, which BSDF sampling never finds): the weight is 1 and `pdf` is the
   /// probability of having chosen the light; `power` is then unused.
   bool delta = false;
+  /// Each surface's normalised Phong exponent, phongExponent(roughness), in [0, kMaxPhongExponent] where it is glossy,
+  /// or −1 where it is Lambertian; empty: every surface is Lambertian.
+  std::span<const Real> exponent = {};
 };
 
 /// The light each sample brings, stored by coordinate, and whether the BSDF lets any through.
-struct DiffuseLightOutput {
+struct SurfaceLightOutput {
   std::span<Real> lightR; ///< β f |cosθ| Le w / pdf: red.
   std::span<Real> lightG; ///< β f |cosθ| Le w / pdf: green.
   std::span<Real> lightB; ///< β f |cosθ| Le w / pdf: blue.
   std::span<Real> useful; ///< 1 where f ≠ 0 (the shadow ray is worth tracing), else 0.
 };
 
-/// For samples [0, count): chapter 8's light sample at a Lambertian surface, bit for bit: f = lambertianEval(ρ, wo,
-/// wi) and its pdf lambertianPdf in Frame::fromNormal(n) (wo = −d), the MIS weight powerHeuristic (or
-/// balanceHeuristic) of the light's pdf against the BSDF's (1 for point lights: `delta`), and β f |cosθ| Le (w / pdf).
-void diffuseLightSamples(const DiffuseLightInput& in, std::size_t count, const DiffuseLightOutput& out);
+/// For samples [0, count): chapter 8's light sample at a Lambertian or glossy surface, bit for bit: f and its pdf in
+/// Frame::fromNormal(n) (wo = −d), lambertianEval and lambertianPdf, or phongEval and phongPdf (their power of cosα
+/// through libm's pow, lane by lane, as the scalar code calls it), the MIS weight powerHeuristic (or balanceHeuristic)
+/// of the light's pdf against the BSDF's (1 for point lights: `delta`), and β f |cosθ| Le (w / pdf).
+void surfaceLightSamples(const SurfaceLightInput& in, std::size_t count, const SurfaceLightOutput& out);
 
 /// Shadow rays from surface points towards spheres, stored by coordinate: each point with its error bound and
 /// geometric normal, the direction, and the sphere the ray is aimed at.

@@ -127,7 +127,7 @@ struct TriangleHitColumns {
 };
 
 /// The light samples towards still spheres of a round by coordinate: shade's input to sphereLightDirections,
-/// diffuseLightSamples and shadowRaysToSpheres, and their output.
+/// surfaceLightSamples and shadowRaysToSpheres, and their output.
 struct SphereLightColumns {
   std::vector<std::uint32_t> path; // which path each entry is
   // The guided ones among them (entry guided[g] is the g-th): the light guide's tree (GuideLanes::root), its
@@ -136,12 +136,12 @@ struct SphereLightColumns {
   std::vector<SampleForestIndex> root;
   std::vector<Real> alpha, v1, v2, w1, w2, density;
   std::vector<Real> px, py, pz, cx, cy, cz, radius, u1, u2, choice, guide, wx, wy, wz, pdf; // the directions
-  std::vector<Real> nx, ny, nz, dx, dy, dz, betaR, betaG, betaB, rhoR, rhoG, rhoB, leR, leG, leB, lightR, lightG,
-      lightB, useful;                                                                     // the light they bring
+  std::vector<Real> nx, ny, nz, dx, dy, dz, betaR, betaG, betaB, rhoR, rhoG, rhoB, leR, leG, leB, exponent, lightR,
+      lightG, lightB, useful;                                                             // the light they bring
   std::vector<Real> ex, ey, ez, gx, gy, gz, ox, oy, oz, t;                                // the shadow rays
   void resize(std::size_t n)
   {
-    atLeast(path, n), atLeast(guided, n), atLeast(root, n);
+    atLeast(path, n), atLeast(guided, n), atLeast(root, n), atLeast(exponent, n);
     for (std::vector<Real>* v : {&alpha, &v1, &v2, &w1, &w2, &density})
       atLeast(*v, n);
     for (std::vector<Real>* v : {&px,    &py,    &pz,    &cx,    &cy,    &cz,     &radius, &u1,     &u2,
@@ -154,16 +154,16 @@ struct SphereLightColumns {
 };
 
 /// The light samples towards point lights of a round by coordinate: shade's input to pointLightRays and
-/// diffuseLightSamples, and their output.
+/// surfaceLightSamples, and their output.
 struct PointLightColumns {
   std::vector<std::uint32_t> path; // which path each entry is
   std::vector<Real> px, py, pz, ex, ey, ez, gx, gy, gz, lx, ly, lz, iR, iG, iB; // the points and their lights
   std::vector<Real> wx, wy, wz, liR, liG, liB, ox, oy, oz, t, arrives;        // the arrivals and shadow rays
-  std::vector<Real> nx, ny, nz, dx, dy, dz, choice, betaR, betaG, betaB, rhoR, rhoG, rhoB, lightR, lightG, lightB,
-      useful; // the light they bring
+  std::vector<Real> nx, ny, nz, dx, dy, dz, choice, betaR, betaG, betaB, rhoR, rhoG, rhoB, exponent, lightR, lightG,
+      lightB, useful; // the light they bring
   void resize(std::size_t n)
   {
-    atLeast(path, n);
+    atLeast(path, n), atLeast(exponent, n);
     for (std::vector<Real>* v : {&px, &py, &pz, &ex, &ey, &ez, &gx, &gy, &gz, &lx, &ly, &lz, &iR, &iG, &iB, &wx, &wy,
                                  &wz, &liR, &liG, &liB, &ox, &oy, &oz, &t, &arrives, &nx, &ny, &nz, &dx, &dy, &dz,
                                  &choice, &betaR, &betaG, &betaB, &rhoR, &rhoG, &rhoB, &lightR, &lightG, &lightB,
@@ -173,16 +173,16 @@ struct PointLightColumns {
 };
 
 /// The light samples towards triangles of a round by coordinate: shade's input to triangleLightDirections and
-/// diffuseLightSamples, and their output.
+/// surfaceLightSamples, and their output.
 struct TriangleLightColumns {
   std::vector<std::uint32_t> path; // which path each entry is
   std::vector<Real> px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz, u1, u2, wx, wy, wz, solidAnglePdf; // directions
   std::vector<Real> choice, guide, pdf, nx, ny, nz, dx, dy, dz, betaR, betaG, betaB, rhoR, rhoG, rhoB, leR, leG, leB,
-      lightR, lightG, lightB, useful;                                 // the light they bring
+      exponent, lightR, lightG, lightB, useful;                       // the light they bring
   std::vector<Real> ex, ey, ez, gx, gy, gz, ox, oy, oz, t; // the shadow rays
   void resize(std::size_t n)
   {
-    atLeast(path, n);
+    atLeast(path, n), atLeast(exponent, n);
     for (std::vector<Real>* v : {&px,    &py,    &pz,    &ax,    &ay,    &az,     &bx,     &by,     &bz,
                                  &cx,    &cy,    &cz,    &u1,    &u2,    &wx,     &wy,     &wz,     &solidAnglePdf,
                                  &choice, &guide, &pdf,  &nx,    &ny,    &nz,     &dx,     &dy,     &dz,
@@ -209,12 +209,13 @@ struct Queues {
   SphereLightColumns sphereLights;  // shade: light samples towards still spheres
   PointLightColumns pointLights;    // and towards point lights
   TriangleLightColumns triangleLights; // and towards triangles
-  // shade: the paths grouped by material, and which go on.
-  std::vector<std::uint32_t> diffuse, other, grouped;
+  // shade: the paths grouped by material (those shaded in the lanes: the diffuse ones, then the glossy ones; the
+  // others), and which go on.
+  std::vector<std::uint32_t> inLanes, glossy, other, grouped;
   std::vector<std::uint8_t> goesOn;
-  // shade's diffuse bounces, by coordinate (the stream kernel's input and output).
-  std::vector<Real> nx, ny, nz, dx, dy, dz, u1, u2, wx, wy, wz, cosTheta, pdf;
-  // shade's diffuse hits' points and the light guide's cell of each (guideCells).
+  // shade's diffuse bounces, then its glossy ones, by coordinate (the stream kernels' input and output).
+  std::vector<Real> nx, ny, nz, dx, dy, dz, u1, u2, exponent, wx, wy, wz, cosTheta, pdf, fScale;
+  // shade's diffuse and glossy hits' points and the light guide's cell of each (guideCells).
   std::vector<Real> px, py, pz;
   std::vector<SampleForestIndex> cell;
   // shade → connect: shadow rays, and the light each brings if it gets through.
@@ -383,16 +384,17 @@ void extend(const Stages& st, Queues& q, bool cameraRays)
 // Stage 3, shade: at every hit, what chapter 8's loop does at a vertex. Emission found by the BSDF's ray (weighted
 // against light sampling); a light sample, whose shadow ray goes to connect's queue with the light it would bring;
 // the BSDF sample that continues the path; Russian roulette. The paths are taken grouped by material: the diffuse
-// ones' bounces together through the stream kernel, the others one by one. Paths that end are dropped, and those
-// that go on close up at the front of the wavefront.
+// and the glossy ones' light samples and bounces together through the stream kernels, the others one by one. Paths
+// that end are dropped, and those that go on close up at the front of the wavefront.
 void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Color> out)
 {
   const Scene& scene = st.scene;
   Paths& paths = q.paths;
   const std::size_t n = paths.size();
   auto material = [&](std::uint32_t i) -> const Material& { return scene.materials[std::size_t(q.hit[i].material)]; };
-  // Misses and emission first; then which paths shade, grouped: the diffuse ones, then the rest by type.
-  q.diffuse.clear(), q.other.clear();
+  // Misses and emission first; then which paths shade, grouped: the diffuse ones, the glossy ones (but a lobe so
+  // narrow that phongSample takes it for a mirror), then the rest by type.
+  q.inLanes.clear(), q.glossy.clear(), q.other.clear();
   for (std::uint32_t i = 0; i < n; ++i) {
     Color& L = out[paths.slot[i]];
     if (!q.found[i]) { // the ray left the scene: the background or the environment map, found only by BSDF
@@ -410,7 +412,12 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
                                           st.lights.pdf(paths.from[i], hit.primitive, hit.point, hit.time)));
     if (bounce == maxDepth)
       continue;
-    (m.type == MaterialType::Diffuse ? q.diffuse : q.other).push_back(i);
+    if (m.type == MaterialType::Diffuse)
+      q.inLanes.push_back(i);
+    else if (m.type == MaterialType::Glossy && phongExponent(m.roughness) <= kMaxPhongExponent)
+      q.glossy.push_back(i);
+    else
+      q.other.push_back(i);
   }
   // (Grouped by type: one pass over them per type, which keeps each type's paths in order.)
   q.grouped.clear();
@@ -423,7 +430,7 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
 
   // Light sampling (as chapters 7 and 8): a light, a direction towards it, and its shadow ray into connect's
   // queue. A point light's, a still sphere's or a triangle's direction and shadow ray are left to the stream kernels
-  // (below) when `inLanes` (a diffuse surface).
+  // (below) when `inLanes` (a diffuse or glossy surface).
   SphereLightColumns& sl = q.sphereLights;
   PointLightColumns& pl = q.pointLights;
   TriangleLightColumns& tl = q.triangleLights;
@@ -433,6 +440,8 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   if (st.triangleLights) // (and the triangles' where some emit: 400 bytes a path)
     tl.resize(n);
   std::size_t nl = 0, ng = 0, np = 0, nt = 0;
+  // The lobe of a surface in the lanes: a glossy one's Phong exponent, −1 for a diffuse one (surfaceLightSamples).
+  auto lobe = [](const Material& m) { return m.type == MaterialType::Glossy ? phongExponent(m.roughness) : Real(-1); };
   // What every light sample in the lanes needs of its path, its hit and its surface, into entry k of `c` (the
   // sphere or the triangle lights' columns).
   auto shadingColumns = [&](auto& c, std::size_t k, std::uint32_t i, const Hit& hit, const Material& m,
@@ -546,29 +555,41 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
     q.goesOn[i] = 1;
   };
 
-  // The diffuse paths: light samples one by one (each path's light and direction differ), then every bounce at
-  // once, one path per lane (diffuseBounces: lambertianSample and the frame, bit for bit).
-  const std::size_t nd = q.diffuse.size();
-  for (std::vector<Real>* v : {&q.nx, &q.ny, &q.nz, &q.dx, &q.dy, &q.dz, &q.u1, &q.u2, &q.wx, &q.wy, &q.wz,
-                               &q.cosTheta, &q.pdf, &q.px, &q.py, &q.pz})
-    atLeast(*v, nd);
-  atLeast(q.cell, nd);
-  for (std::size_t k = 0; k < nd; ++k) {
-    const Vec3& p = q.hit[q.diffuse[k]].point;
+  // The diffuse and the glossy paths (entries [0, nd) and [nd, nb) of the columns below): light samples one by one
+  // (each path's light and direction differ), then every bounce at once, one path per lane (diffuseBounces:
+  // lambertianSample and the frame; glossyBounces: phongSample; bit for bit).
+  const std::size_t nd = q.inLanes.size(), nb = nd + q.glossy.size();
+  q.inLanes.insert(q.inLanes.end(), q.glossy.begin(), q.glossy.end());
+  for (std::vector<Real>* v : {&q.nx, &q.ny, &q.nz, &q.dx, &q.dy, &q.dz, &q.u1, &q.u2, &q.exponent, &q.wx, &q.wy,
+                               &q.wz, &q.cosTheta, &q.pdf, &q.fScale, &q.px, &q.py, &q.pz})
+    atLeast(*v, nb);
+  atLeast(q.cell, nb);
+  for (std::size_t k = 0; k < nb; ++k) {
+    const Vec3& p = q.hit[q.inLanes[k]].point;
     q.px[k] = p.x, q.py[k] = p.y, q.pz[k] = p.z;
   }
-  guideCells(st.guide.cells(), q.px, q.py, q.pz, nd, q.cell); // (the light guide's cell of each, as cellOf finds it)
-  for (std::size_t k = 0; k < nd; ++k) {
-    const std::uint32_t i = q.diffuse[k];
+  guideCells(st.guide.cells(), q.px, q.py, q.pz, nb, q.cell); // (the light guide's cell of each, as cellOf finds it)
+  for (std::size_t k = 0; k < nb; ++k) {
+    const std::uint32_t i = q.inLanes[k];
     const Hit& hit = q.hit[i];
     sampleLight(i, material(i), int(q.cell[k]), true);
-    paths.sampler[i].next1D(); // the lobe choice, which a diffuse surface does not use (drawn as in chapter 8)
+    paths.sampler[i].next1D(); // the lobe choice, which neither surface uses (drawn as in chapter 8)
     const Vec2 u = paths.sampler[i].next2D();
     q.nx[k] = hit.normal.x, q.ny[k] = hit.normal.y, q.nz[k] = hit.normal.z;
     q.dx[k] = paths.ray.dx[i], q.dy[k] = paths.ray.dy[i], q.dz[k] = paths.ray.dz[i], q.u1[k] = u.x, q.u2[k] = u.y;
   }
-  // The diffuse paths' light samples towards still spheres, all at once: the guide's warp of their numbers, the
-  // directions (sampleSphereCone), the light each would bring (Lambert's f, the MIS weight), and the shadow rays'
+  for (std::size_t k = nd; k < nb; ++k)
+    q.exponent[k] = lobe(material(q.inLanes[k]));
+  // Each light sample's lobe, for surfaceLightSamples, in a round with glossy paths (in the others it needs none).
+  auto lobes = [&](std::vector<Real>& e, const std::vector<std::uint32_t>& path, std::size_t count) {
+    if (nb == nd)
+      return std::span<const Real>();
+    for (std::size_t k = 0; k < count; ++k)
+      e[k] = lobe(material(path[k]));
+    return std::span<const Real>(e);
+  };
+  // The light samples towards still spheres, all at once: the guide's warp of their numbers, the directions
+  // (sampleSphereCone), the light each would bring (Lambert's or Phong's f, the MIS weight), and the shadow rays'
   // origins and lengths.
   guidedWarps(st.guide.forest, {sl.root, sl.alpha, sl.v1, sl.v2}, ng, {sl.w1, sl.w2, sl.density});
   for (std::size_t g = 0; g < ng; ++g) {
@@ -577,8 +598,9 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   }
   sphereLightDirections({sl.px, sl.py, sl.pz, sl.cx, sl.cy, sl.cz, sl.radius, sl.u1, sl.u2, sl.choice, sl.guide}, nl,
                         {sl.wx, sl.wy, sl.wz, sl.pdf});
-  diffuseLightSamples({sl.nx, sl.ny, sl.nz, sl.dx, sl.dy, sl.dz, sl.wx, sl.wy, sl.wz, sl.pdf, sl.betaR, sl.betaG,
-                       sl.betaB, sl.rhoR, sl.rhoG, sl.rhoB, sl.leR, sl.leG, sl.leB, st.heuristic == MisHeuristic::Power},
+  surfaceLightSamples({sl.nx, sl.ny, sl.nz, sl.dx, sl.dy, sl.dz, sl.wx, sl.wy, sl.wz, sl.pdf, sl.betaR, sl.betaG,
+                       sl.betaB, sl.rhoR, sl.rhoG, sl.rhoB, sl.leR, sl.leG, sl.leB, st.heuristic == MisHeuristic::Power,
+                       false, lobes(sl.exponent, sl.path, nl)},
                       nl, {sl.lightR, sl.lightG, sl.lightB, sl.useful});
   shadowRaysToSpheres({sl.px, sl.py, sl.pz, sl.ex, sl.ey, sl.ez, sl.gx, sl.gy, sl.gz, sl.wx, sl.wy, sl.wz, sl.cx, sl.cy,
                        sl.cz, sl.radius},
@@ -589,13 +611,14 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
                          q.hit[sl.path[k]].time},
                      Color(sl.lightR[k], sl.lightG[k], sl.lightB[k]), paths.slot[sl.path[k]]);
 
-  // The diffuse paths' light samples towards point lights, all at once: the light that arrives and the shadow ray
-  // (pointLightRays), and what it brings (Lambert's f, weight 1: no other strategy finds a point).
+  // The light samples towards point lights, all at once: the light that arrives and the shadow ray (pointLightRays),
+  // and what it brings (Lambert's or Phong's f, weight 1: no other strategy finds a point).
   pointLightRays({pl.px, pl.py, pl.pz, pl.ex, pl.ey, pl.ez, pl.gx, pl.gy, pl.gz, pl.lx, pl.ly, pl.lz, pl.iR, pl.iG,
                   pl.iB},
                  np, {pl.wx, pl.wy, pl.wz, pl.liR, pl.liG, pl.liB, pl.ox, pl.oy, pl.oz, pl.t, pl.arrives});
-  diffuseLightSamples({pl.nx, pl.ny, pl.nz, pl.dx, pl.dy, pl.dz, pl.wx, pl.wy, pl.wz, pl.choice, pl.betaR, pl.betaG,
-                       pl.betaB, pl.rhoR, pl.rhoG, pl.rhoB, pl.liR, pl.liG, pl.liB, true, true},
+  surfaceLightSamples({pl.nx, pl.ny, pl.nz, pl.dx, pl.dy, pl.dz, pl.wx, pl.wy, pl.wz, pl.choice, pl.betaR, pl.betaG,
+                       pl.betaB, pl.rhoR, pl.rhoG, pl.rhoB, pl.liR, pl.liG, pl.liB, true, true,
+                       lobes(pl.exponent, pl.path, np)},
                       np, {pl.lightR, pl.lightG, pl.lightB, pl.useful});
   for (std::size_t k = 0; k < np; ++k)
     if (pl.arrives[k] != 0 && pl.useful[k] != 0)
@@ -603,7 +626,7 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
                          q.hit[pl.path[k]].time},
                      Color(pl.lightR[k], pl.lightG[k], pl.lightB[k]), paths.slot[pl.path[k]]);
 
-  // The diffuse paths' light samples towards triangles, all at once: the directions (sampleTriangleLight), the pdf
+  // The light samples towards triangles, all at once: the directions (sampleTriangleLight), the pdf
   // (the choice's, the direction's, then the guide's, as sampleChosen multiplies them), the light each would bring,
   // and the shadow rays, each as long as the way to its triangle (the watertight test in the lanes).
   triangleLightDirections({tl.px, tl.py, tl.pz, tl.ax, tl.ay, tl.az, tl.bx, tl.by, tl.bz, tl.cx, tl.cy, tl.cz, tl.u1,
@@ -611,14 +634,14 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
                           nt, {tl.wx, tl.wy, tl.wz, tl.solidAnglePdf});
   for (std::size_t k = 0; k < nt; ++k)
     tl.pdf[k] = tl.choice[k] * tl.solidAnglePdf[k] * tl.guide[k];
-  diffuseLightSamples({tl.nx, tl.ny, tl.nz, tl.dx, tl.dy, tl.dz, tl.wx, tl.wy, tl.wz, tl.pdf, tl.betaR, tl.betaG,
+  surfaceLightSamples({tl.nx, tl.ny, tl.nz, tl.dx, tl.dy, tl.dz, tl.wx, tl.wy, tl.wz, tl.pdf, tl.betaR, tl.betaG,
                        tl.betaB, tl.rhoR, tl.rhoG, tl.rhoB, tl.leR, tl.leG, tl.leB,
-                       st.heuristic == MisHeuristic::Power},
+                       st.heuristic == MisHeuristic::Power, false, lobes(tl.exponent, tl.path, nt)},
                       nt, {tl.lightR, tl.lightG, tl.lightB, tl.useful});
   shadowRaysToTriangles({tl.px, tl.py, tl.pz, tl.ex, tl.ey, tl.ez, tl.gx, tl.gy, tl.gz, tl.wx, tl.wy, tl.wz, tl.ax,
                          tl.ay, tl.az, tl.bx, tl.by, tl.bz, tl.cx, tl.cy, tl.cz},
                         nt, {tl.ox, tl.oy, tl.oz, tl.t});
-  // (No direction where the triangle is seen edge on; no light where Lambert's f is 0; no ray where the direction
+  // (No direction where the triangle is seen edge on; no light where the surface's f is 0; no ray where the direction
   // leaves the light's own surface.)
   for (std::size_t k = 0; k < nt; ++k)
     if (tl.solidAnglePdf[k] > 0 && tl.useful[k] != 0 && tl.t[k] < kInfinity)
@@ -627,11 +650,15 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
                      Color(tl.lightR[k], tl.lightG[k], tl.lightB[k]), paths.slot[tl.path[k]]);
 
   diffuseBounces({q.nx, q.ny, q.nz, q.dx, q.dy, q.dz, q.u1, q.u2}, nd, {q.wx, q.wy, q.wz, q.cosTheta, q.pdf});
-  for (std::size_t k = 0; k < nd; ++k) {
-    const std::uint32_t i = q.diffuse[k];
+  const auto from = [nd](std::vector<Real>& v) { return std::span<Real>(v).subspan(nd); };
+  glossyBounces({{from(q.nx), from(q.ny), from(q.nz), from(q.dx), from(q.dy), from(q.dz), from(q.u1), from(q.u2)},
+                 from(q.exponent)},
+                nb - nd, {{from(q.wx), from(q.wy), from(q.wz), from(q.cosTheta), from(q.pdf)}, from(q.fScale)});
+  for (std::size_t k = 0; k < nb; ++k) {
+    const std::uint32_t i = q.inLanes[k];
     if (!(q.pdf[k] > 0))
       continue; // no sample: the path ends
-    const Color f = material(i).color * kInvPi; // lambertianSample's f
+    const Color f = material(i).color * (k < nd ? kInvPi : q.fScale[k]); // lambertianSample's f, or phongSample's
     continuePath(i, f * std::abs(q.cosTheta[k]) / q.pdf[k], false, q.pdf[k], Vec3(q.wx[k], q.wy[k], q.wz[k]));
   }
 

@@ -3,7 +3,8 @@
 // against the loop over intersectSphere, the hit records against sphereSurfacePoint (and intersectTriangle,
 // trianglePoint and triangleNormal), the directions towards spherical lights against sampleSphereCone and
 // sphereConePdf, those towards triangle lights against sampleTriangleLight, the shadow rays against offsetRayOrigin
-// and intersectSphere or intersectTriangle, and the diffuse bounces against lambertianSample in Frame, the light
+// and intersectSphere or intersectTriangle, the diffuse and glossy bounces against lambertianSample and phongSample
+// in Frame, the light samples' worth against bsdfEval, bsdfPdf and the MIS weights, the light
 // guide's cells and warps against LightSampler::cellOf and SampleTree::sampleMixture; on random rays, hits and
 // numbers, with stream lengths that are not a multiple of the lanes.
 #include "core/frame.h"
@@ -474,7 +475,7 @@ TEST_CASE("stream kernels: shadowRaysToTriangles equals offsetRayOrigin and inte
   });
 }
 
-TEST_CASE("stream kernels: diffuseLightSamples equals Lambert's f, its pdf and the MIS weight, bit for bit")
+TEST_CASE("stream kernels: surfaceLightSamples equals Lambert's or Phong's f, its pdf and the MIS weight, bit for bit")
 {
   forEachTarget([](const SimdTarget&) {
     for (const bool power : {true, false}) {
@@ -483,9 +484,19 @@ TEST_CASE("stream kernels: diffuseLightSamples equals Lambert's f, its pdf and t
       auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
       std::vector<Real> nx(count), ny(count), nz(count), dx(count), dy(count), dz(count), wx(count), wy(count),
           wz(count), pdf(count), bR(count), bG(count), bB(count), rR(count), rG(count), rB(count), lR(count),
-          lG(count), lB(count);
+          lG(count), lB(count), exponent(count), roughness(count);
       for (std::size_t i = 0; i < count; ++i) {
-        const Vec3 n = randomDirection(rng), d = randomDirection(rng), w = randomDirection(rng);
+        const Vec3 n = randomDirection(rng), d = randomDirection(rng);
+        Vec3 w = randomDirection(rng);
+        // A third Lambertian, the rest glossy: roughness 1 (exponent 0), the smallest, and between (exponents
+        // 0 to 2·10⁶); half of the glossy ones' light comes from near the mirror direction, inside the lobe.
+        roughness[i] = i % 3 == 0   ? 0
+                       : i % 19 == 1 ? 1
+                       : i % 19 == 2 ? kMinPhongRoughness
+                                     : std::max(kMinPhongRoughness, std::exp(-7 * u()));
+        exponent[i] = i % 3 == 0 ? -1 : phongExponent(roughness[i]);
+        if (i % 3 != 0 && i % 2 == 0)
+          w = glm::normalize(glm::reflect(d, n) + Real(0.3) * u() * randomDirection(rng));
         nx[i] = n.x, ny[i] = n.y, nz[i] = n.z, dx[i] = d.x, dy[i] = d.y, dz[i] = d.z, wx[i] = w.x, wy[i] = w.y;
         wz[i] = w.z;
         // Light pdfs from tiny to huge (a small far lamp), one infinite; albedos with a black channel.
@@ -493,29 +504,88 @@ TEST_CASE("stream kernels: diffuseLightSamples equals Lambert's f, its pdf and t
         bR[i] = u(), bG[i] = 2 * u(), bB[i] = u() / 3, rR[i] = u(), rG[i] = i % 5 == 0 ? 0 : u(), rB[i] = u();
         lR[i] = 12, lG[i] = 12 * u(), lB[i] = 0.5;
       }
-      std::vector<Real> outR(count), outG(count), outB(count), useful(count);
-      diffuseLightSamples({nx, ny, nz, dx, dy, dz, wx, wy, wz, pdf, bR, bG, bB, rR, rG, rB, lR, lG, lB, power}, count,
-                          {outR, outG, outB, useful});
-      std::size_t wrong = 0, lit = 0;
-      for (std::size_t i = 0; i < count; ++i) {
-        const Frame frame = Frame::fromNormal(Vec3(nx[i], ny[i], nz[i]));
-        const Vec3 wo = frame.toLocal(-Vec3(dx[i], dy[i], dz[i])), wi = frame.toLocal(Vec3(wx[i], wy[i], wz[i]));
-        Material m;
-        m.color = Color(rR[i], rG[i], rB[i]);
-        const Color f = bsdfEval(m, wo, wi);
-        const Real q = bsdfPdf(m, wo, wi);
-        const Real weight = power ? powerHeuristic(pdf[i], q) : balanceHeuristic(pdf[i], q);
-        const Color L = Color(bR[i], bG[i], bB[i]) * f * std::abs(wi.z) * Color(lR[i], lG[i], lB[i]) *
-                        (weight / pdf[i]);
-        const bool isLit = f != Color(0);
-        lit += isLit;
-        wrong += (useful[i] != 0) != isLit ||
-                 (isLit && (!sameBits(outR[i], L.r) || !sameBits(outG[i], L.g) || !sameBits(outB[i], L.b)));
+      for (const bool glossy : {false, true}) { // all Lambertian (no exponents), then the mix
+        std::vector<Real> outR(count), outG(count), outB(count), useful(count);
+        surfaceLightSamples({nx, ny, nz, dx, dy, dz, wx, wy, wz, pdf, bR, bG, bB, rR, rG, rB, lR, lG, lB, power,
+                             false, glossy ? std::span<const Real>(exponent) : std::span<const Real>()},
+                            count, {outR, outG, outB, useful});
+        std::size_t wrong = 0, lit = 0, glossyLit = 0;
+        for (std::size_t i = 0; i < count; ++i) {
+          const Frame frame = Frame::fromNormal(Vec3(nx[i], ny[i], nz[i]));
+          const Vec3 wo = frame.toLocal(-Vec3(dx[i], dy[i], dz[i])), wi = frame.toLocal(Vec3(wx[i], wy[i], wz[i]));
+          Material m;
+          m.color = Color(rR[i], rG[i], rB[i]);
+          if (glossy && exponent[i] >= 0)
+            m.type = MaterialType::Glossy, m.roughness = roughness[i];
+          const Color f = bsdfEval(m, wo, wi);
+          const Real q = bsdfPdf(m, wo, wi);
+          const Real weight = power ? powerHeuristic(pdf[i], q) : balanceHeuristic(pdf[i], q);
+          const Color L = Color(bR[i], bG[i], bB[i]) * f * std::abs(wi.z) * Color(lR[i], lG[i], lB[i]) *
+                          (weight / pdf[i]);
+          const bool isLit = f != Color(0);
+          lit += isLit;
+          glossyLit += isLit && m.type == MaterialType::Glossy;
+          wrong += (useful[i] != 0) != isLit ||
+                   (isLit && (!sameBits(outR[i], L.r) || !sameBits(outG[i], L.g) || !sameBits(outB[i], L.b)));
+        }
+        INFO((power ? "power" : "balance") << " heuristic, " << (glossy ? "glossy and Lambertian, " : "Lambertian, ")
+                                           << lit << " of " << count << " lit, " << glossyLit << " glossy");
+        CHECK(lit > count / 4);
+        if (glossy)
+          CHECK(glossyLit > count / 4);
+        else
+          CHECK(glossyLit == 0);
+        CHECK(wrong == 0);
       }
-      INFO((power ? "power" : "balance") << " heuristic, " << lit << " of " << count << " lit");
-      CHECK(lit > count / 4);
-      CHECK(wrong == 0);
     }
+  });
+}
+
+TEST_CASE("stream kernels: glossyBounces equals phongSample in Frame::fromNormal, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    const std::size_t count = 20011;
+    Pcg32 rng(9, 14);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    std::vector<Real> nx(count), ny(count), nz(count), dx(count), dy(count), dz(count), u1(count), u2(count),
+        exponent(count), roughness(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      const Vec3 n = randomDirection(rng);
+      // Some arrive in the surface (wo.z = 0: no sample); some numbers at 0 (the lobe's axis, the azimuth 0).
+      const Vec3 d = i % 97 == 0 ? Frame::fromNormal(n).s : randomDirection(rng);
+      roughness[i] = i % 23 == 0   ? 1
+                     : i % 23 == 1 ? kMinPhongRoughness
+                                   : std::max(kMinPhongRoughness, std::exp(-7 * u()));
+      exponent[i] = phongExponent(roughness[i]);
+      nx[i] = n.x, ny[i] = n.y, nz[i] = n.z, dx[i] = d.x, dy[i] = d.y, dz[i] = d.z;
+      u1[i] = i % 31 == 0 ? 0 : u(), u2[i] = i % 37 == 0 ? 0 : u();
+    }
+    std::vector<Real> wx(count), wy(count), wz(count), cosTheta(count), pdf(count), fScale(count);
+    glossyBounces({{nx, ny, nz, dx, dy, dz, u1, u2}, exponent}, count, {{wx, wy, wz, cosTheta, pdf}, fScale});
+    std::size_t wrong = 0, sampled = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Frame frame = Frame::fromNormal(Vec3(nx[i], ny[i], nz[i]));
+      const Vec3 wo = frame.toLocal(-Vec3(dx[i], dy[i], dz[i]));
+      Material m;
+      m.type = MaterialType::Glossy, m.roughness = roughness[i], m.color = Color(Real(0.9), Real(0.5), 0);
+      const std::optional<BsdfSample> bs = bsdfSample(m, wo, Vec2(u1[i], u2[i]), u());
+      sampled += bs.has_value();
+      if (bs.has_value() != (pdf[i] > 0)) {
+        ++wrong;
+        continue;
+      }
+      if (!bs)
+        continue;
+      const Vec3 w = frame.toWorld(bs->wi);
+      const Color f = m.color * fScale[i];
+      wrong += bs->specular || !sameBits(pdf[i], bs->pdf) || !sameBits(cosTheta[i], bs->wi.z) ||
+               !sameBits(wx[i], w.x) || !sameBits(wy[i], w.y) || !sameBits(wz[i], w.z) || !sameBits(f.r, bs->f.r) ||
+               !sameBits(f.g, bs->f.g) || !sameBits(f.b, bs->f.b);
+    }
+    INFO(sampled << " of " << count << " bounces sampled");
+    CHECK(sampled > count / 2);
+    CHECK(sampled < count);
+    CHECK(wrong == 0);
   });
 }
 
@@ -580,7 +650,7 @@ TEST_CASE("stream kernels: pointLightRays equals arrivalAt and spawnRayTo, and p
       choice[i] = Real(0.05) + u(), bR[i] = u(), bG[i] = 2 * u(), bB[i] = u(), rR[i] = u(), rG[i] = u(), rB[i] = 0;
     }
     std::vector<Real> outR(count), outG(count), outB(count), useful(count);
-    diffuseLightSamples({nx, ny, nz, dx, dy, dz, wx, wy, wz, choice, bR, bG, bB, rR, rG, rB, liR, liG, liB, true,
+    surfaceLightSamples({nx, ny, nz, dx, dy, dz, wx, wy, wz, choice, bR, bG, bB, rR, rG, rB, liR, liG, liB, true,
                          true},
                         count, {outR, outG, outB, useful});
     std::size_t lit = 0;
