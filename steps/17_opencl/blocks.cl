@@ -349,6 +349,25 @@ int materialOf(const Geometry* g, int p)
   return p < g->sphereCount ? g->sphereMaterials[p] : (int)g->triangles[p - g->sphereCount].w;
 }
 
+// The box test for child k of a node: whether the ray's interval [tmin, tmax) meets its box, and where it enters
+// (INFINITY: it misses). Float throughout; the interval is widened by the BVH's margin (kBoxMargin) and a few
+// roundings, so that a box the exact ray touches is never culled. An origin exactly on a face (0·∞ = NaN) keeps
+// the box.
+float boxEntry(__global const WideNode* node, int k, float3 o, float3 inv, float tmin, float tmax)
+{
+  const float widen = gammaF(32) + gammaF(8);
+  __global const float* b = node->bounds;
+  const float3 lo = (float3)(b[k], b[8 + k], b[16 + k]), hi = (float3)(b[24 + k], b[32 + k], b[40 + k]);
+  float3 t0 = (lo - o) * inv, t1 = (hi - o) * inv;
+  const int3 undefined = isnan(t0) | isnan(t1); // 0·∞: the origin on a face, the ray along it
+  t0 = select(t0, (float3)(-INFINITY), undefined);
+  t1 = select(t1, (float3)(INFINITY), undefined);
+  const float3 near = fmin(t0, t1) * (1.0f - widen), far = fmax(t0, t1) * (1.0f + widen);
+  const float tNear = fmax(tmin, fmax(near.x, fmax(near.y, near.z)));
+  const float tFar = fmin(tmax, fmin(far.x, fmin(far.y, far.z)));
+  return tNear <= tFar ? tNear : INFINITY;
+}
+
 // One axis of the box test below, for a node's eight children: where the ray enters each child's slab (returned)
 // and where it leaves it (*far), widened.
 float8 slab(__global const float* bounds, int axis, float o, float inv, float widen, float8* far)
@@ -361,12 +380,11 @@ float8 slab(__global const float* bounds, int axis, float o, float inv, float wi
   return fmin(t0, t1) * (1.0f - widen);
 }
 
-// The box test for all eight children of a node at once, one child a lane of a float8 (the bounds lie by
-// coordinate, eight to a row, so each row is one vload8): where the ray's interval [tmin, tmax) enters each child's
-// box, INFINITY where it misses it or where the node has no such child. Float throughout; the interval is widened by
-// the BVH's margin (kBoxMargin) and a few roundings, so that a box the exact ray touches is never culled. An origin
-// exactly on a face (0·∞ = NaN) keeps the box. (On a CPU the float8 is one AVX register, as chapter 9's walk tests
-// its boxes; a GPU's work-item does the eight lanes one after another, as a loop over the children would.)
+// The same test for all eight children of a node at once, one child a lane of a float8 (the bounds lie by
+// coordinate, eight to a row, so each row is one vload8), the same arithmetic lane by lane: boxEntry(node, k, ...)
+// in lane k, and INFINITY where the node has no child k. On a CPU device each float8 operation is one vector
+// instruction, as chapter 9's walk tests its boxes; a GPU's work-item would do all eight lanes one after another,
+// empty slots too, so the walk uses it on CPU devices only (BOX_LANES).
 float8 boxEntries(__global const WideNode* node, float3 o, float3 inv, float tmin, float tmax)
 {
   const float widen = gammaF(32) + gammaF(8);
@@ -452,12 +470,18 @@ float2 traceRay(const Geometry* g, float3 o, float3 d, float tmax, int anyHit)
     }
     // A node: the children the ray enters, pushed farthest first so that the nearest comes off the stack next.
     __global const WideNode* node = &g->nodes[item];
+#if BOX_LANES // (a CPU device: the host says so)
     float entries[8];
     vstore8(boxEntries(node, o, inv, 0.0f, best), 0, entries);
+#endif
     const int boxes = (int)node->boxes;
     const int base = top;
     for (int k = 0; k < boxes; ++k) {
+#if BOX_LANES
       const float t = entries[k];
+#else
+      const float t = boxEntry(node, k, o, inv, 0.0f, best);
+#endif
       if (t == INFINITY)
         continue;
       int at = top++;

@@ -214,7 +214,8 @@ public:
                   std::size_t capacity)
       : context_(device.device), queue_(context_, device.device),
         program_(opencl::buildProgram(context_, device.device, opencl::kernelSource(),
-                                      "-D GROUP_SIZE=" + std::to_string(kGroupSize))),
+                                      "-D GROUP_SIZE=" + std::to_string(kGroupSize) +
+                                          (device.gpu ? "" : " -D BOX_LANES=1"))),
         scene_(context_, scene, sampleLights), power_(heuristic == MisHeuristic::Power),
         paths_{PathBuffers(context_, capacity), PathBuffers(context_, capacity)},
         keys_(context_, CL_MEM_READ_ONLY, capacity * sizeof(cl_int4)),

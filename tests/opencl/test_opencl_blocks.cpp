@@ -21,6 +21,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <iostream>
 #include <random>
 #include <vector>
@@ -44,10 +45,12 @@ __kernel void testTriangle(__global const float4* o, __global const float4* d, _
   out[i] = intersectTriangle(o[i].xyz, d[i].xyz, p[3 * i].xyz, p[3 * i + 1].xyz, p[3 * i + 2].xyz, 0.0f, INFINITY);
 }
 __kernel void testBox(__global const WideNode* nodes, __global const float4* o, __global const float4* d,
-                      __global float* entry)
+                      __global float* entry, __global float* oneByOne)
 {
   const uint i = get_global_id(0);
   vstore8(boxEntries(&nodes[i], o[i].xyz, 1.0f / d[i].xyz, 0.0f, INFINITY), i, entry);
+  for (int k = 0; k < (int)nodes[i].boxes; ++k)
+    oneByOne[8 * i + k] = boxEntry(&nodes[i], k, o[i].xyz, 1.0f / d[i].xyz, 0.0f, INFINITY);
 }
 __kernel void testEnvironment(__global const float4* texels, const float4 info, __global const float4* d,
                               __global float4* out)
@@ -278,10 +281,10 @@ TEST_CASE("opencl blocks: the box test never culls a box the exact slab test ent
   const std::size_t width = BvhWideNode::kWidth;
   TestDevice& dev = device();
   const cl::Buffer bn = dev.input(nodes), bo = dev.input(o), bd = dev.input(d);
-  const cl::Buffer out = dev.output(kCount * width * sizeof(float));
-  dev.run("testBox", kCount, {&bn, &bo, &bd, &out});
-  const std::vector<float> entry = dev.read<float>(out, kCount * width);
-  std::size_t entered = 0, culled = 0, missedClearly = 0, keptWrongly = 0, emptyKept = 0;
+  const cl::Buffer out = dev.output(kCount * width * sizeof(float)), out1 = dev.output(kCount * width * sizeof(float));
+  dev.run("testBox", kCount, {&bn, &bo, &bd, &out, &out1});
+  const std::vector<float> entry = dev.read<float>(out, kCount * width), one = dev.read<float>(out1, kCount * width);
+  std::size_t entered = 0, culled = 0, missedClearly = 0, keptWrongly = 0, emptyKept = 0, lanesDiffer = 0;
   for (std::size_t i = 0; i < kCount; ++i)
     for (std::size_t k = 0; k < width; ++k) {
       const float e = entry[i * width + k];
@@ -289,6 +292,8 @@ TEST_CASE("opencl blocks: the box test never culls a box the exact slab test ent
         emptyKept += e != INFINITY;
         continue;
       }
+      // (The eight lanes and the test of one child, as a GPU's walk uses it: the same bits.)
+      lanesDiffer += std::memcmp(&e, &one[i * width + k], sizeof e) != 0;
       // The exact slab test in double: the interval [tNear, tFar] ∩ [0, ∞) inside all three slabs.
       double tNear = 0, tFar = INFINITY, gap = 0;
       for (int a = 0; a < 3; ++a) {
@@ -314,11 +319,13 @@ TEST_CASE("opencl blocks: the box test never culls a box the exact slab test ent
       }
     }
   std::cout << "box test: " << entered << " boxes entered (" << culled << " culled), " << missedClearly
-            << " clearly missed (" << keptWrongly << " kept), " << emptyKept << " empty slots kept\n";
+            << " clearly missed (" << keptWrongly << " kept), " << emptyKept << " empty slots kept, " << lanesDiffer
+            << " lanes unlike the one-child test\n";
   CHECK(entered > kCount / 10);
   CHECK(missedClearly > kCount / 10);
   CHECK(culled == 0);
   CHECK(emptyKept == 0);
+  CHECK(lanesDiffer == 0);
   CHECK(keptWrongly == 0);
 }
 
