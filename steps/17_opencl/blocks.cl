@@ -180,15 +180,16 @@ float phongLobePdf(float cosAlpha, float exponent)
 // The nearest root in [tmin, tmax), or −1 when there is none.
 float intersectSphere(float3 o, float3 d, float3 c, float r, float tmin, float tmax)
 {
+  // (The sums written out, in the order intersectSpheres' lanes add them, so that the two give the same bits.)
   const float3 f = o - c;
-  const float ff = dot(f, f), rr = r * r;
-  const float b = -dot(f, d);
+  const float ff = f.x * f.x + f.y * f.y + f.z * f.z, rr = r * r;
+  const float b = -(f.x * d.x + f.y * d.y + f.z * d.z);
   if (ff > rr && b <= 0.0f)
     return -1.0f; // outside, heading away
   if (ff < rr && b >= tmax)
     return -1.0f; // inside, the root ahead beyond tmax
   const float3 l = f + b * d;
-  const float disc = rr - dot(l, l);
+  const float disc = rr - (l.x * l.x + l.y * l.y + l.z * l.z);
   if (disc < 0.0f)
     return -1.0f;
   const float q = b + copysign(sqrt(disc), b);
@@ -207,6 +208,26 @@ float intersectSphere(float3 o, float3 d, float3 c, float r, float tmin, float t
   if (t1 >= tmin && t1 < tmax)
     return t1;
   return -1.0f;
+}
+
+// The same test against eight spheres at once, one a lane of a float8 (centres cx, cy, cz, radii r): each lane's
+// nearest root in [tmin, tmax), or −1, by intersectSphere's arithmetic in the same order, its early returns made
+// masks, so the same bits. For CPU devices (SPHERE_LANES), where each float8 operation is one vector instruction.
+float8 intersectSpheres(float3 o, float3 d, float8 cx, float8 cy, float8 cz, float8 r, float tmin, float tmax)
+{
+  const float8 fx = o.x - cx, fy = o.y - cy, fz = o.z - cz;
+  const float8 ff = fx * fx + fy * fy + fz * fz, rr = r * r;
+  const float8 b = -(fx * d.x + fy * d.y + fz * d.z);
+  const int8 none = (ff > rr && b <= 0.0f) || (ff < rr && b >= tmax); // heading away; the root ahead beyond tmax
+  const float8 lx = fx + b * d.x, ly = fy + b * d.y, lz = fz + b * d.z;
+  const float8 disc = rr - (lx * lx + ly * ly + lz * lz);
+  const float8 q = b + copysign(sqrt(disc), b);
+  const int8 qZero = q == 0.0f;
+  const float8 t0 = select((ff - rr) / q, b, qZero), t1 = select(q, b, qZero);
+  const int8 swap = t0 > t1;
+  const float8 near = select(t0, t1, swap), far = select(t1, t0, swap);
+  const float8 t = select(select((float8)(-1.0f), far, far >= tmin && far < tmax), near, near >= tmin && near < tmax);
+  return select(t, (float8)(-1.0f), none || disc < 0.0f);
 }
 
 // A surface point with its error bound: the hit re-projected onto the sphere (sphereSurfacePoint).
@@ -417,7 +438,29 @@ float2 traceRay(const Geometry* g, float3 o, float3 d, float tmax, int anyHit)
   int found = -1;
   if (g->nodeCount == 0) {
     const int count = g->sphereCount + g->triangleCount;
-    for (int p = 0; p < count; ++p) {
+    int p = 0;
+#if SPHERE_LANES // (a CPU device: the spheres eight at a time, one a lane; the host pads their list to a multiple of 8)
+    for (; p < g->sphereCount; p += 8) {
+      __global const float* s = (__global const float*)(g->spheres + p);
+      const float16 a = vload16(0, s), b = vload16(1, s); // spheres p to p + 3, p + 4 to p + 7: centre, radius
+      float t[8];
+      vstore8(intersectSpheres(o, d, (float8)(a.s048c, b.s048c), (float8)(a.s159d, b.s159d),
+                               (float8)(a.s26ae, b.s26ae), (float8)(a.s37bf, b.s37bf), 0.0f, best),
+              0, t);
+      // In order, as the loop below takes them: a root below the nearest so far, the first of equal ones. (The
+      // lanes' roots are intersectSphere's bit for bit, tests/opencl checks: a shadow ray must stop exactly where
+      // light sampling's intersectSphere put its end, on the light's own sphere.)
+      for (int k = 0; k < 8 && p + k < g->sphereCount; ++k)
+        if (t[k] >= 0.0f && t[k] < best) {
+          best = t[k];
+          found = p + k;
+          if (anyHit)
+            return (float2)(best, as_float(found));
+        }
+    }
+    p = g->sphereCount;
+#endif
+    for (; p < count; ++p) {
       const float t = intersectPrimitive(g, p, o, d, 0.0f, best);
       if (t >= 0.0f) {
         best = t;

@@ -75,6 +75,8 @@ struct DeviceScene {
       sphereData.push_back(float4(s.center, s.radius));
       sphereMaterial.push_back(s.material);
     }
+    // (Padded to a multiple of 8 with spheres no query asks about: a CPU device reads them eight at a time.)
+    sphereData.resize((sphereData.size() + 7) / 8 * 8, cl_float4{{0, 0, 0, 0}});
     for (const Vec3& v : scene.vertices)
       vertexData.push_back(float4(v));
     for (const Vec3& n : scene.vertexNormals)
@@ -215,7 +217,7 @@ public:
       : context_(device.device), queue_(context_, device.device),
         program_(opencl::buildProgram(context_, device.device, opencl::kernelSource(),
                                       "-D GROUP_SIZE=" + std::to_string(kGroupSize) +
-                                          (device.gpu ? "" : " -D BOX_LANES=1"))),
+                                          (device.gpu ? "" : " -D BOX_LANES=1 -D SPHERE_LANES=1"))),
         scene_(context_, scene, sampleLights), power_(heuristic == MisHeuristic::Power),
         paths_{PathBuffers(context_, capacity), PathBuffers(context_, capacity)},
         keys_(context_, CL_MEM_READ_ONLY, capacity * sizeof(cl_int4)),

@@ -33,10 +33,19 @@ namespace {
 // The test kernels: each calls one building block for work-item i's inputs.
 const char* kTestKernels = R"(
 __kernel void testSphere(__global const float4* o, __global const float4* d, __global const float4* s,
-                         __global float* t)
+                         __global float* t, __global float* inLanes)
 {
   const uint i = get_global_id(0);
   t[i] = intersectSphere(o[i].xyz, d[i].xyz, s[i].xyz, s[i].w, 0.0f, INFINITY);
+  // The eight-lane test: ray i against the eight spheres of its sphere's group of eight, its own in lane i % 8.
+  __global const float4* g = s + (i & ~7u);
+  float lanes[8];
+  vstore8(intersectSpheres(o[i].xyz, d[i].xyz, (float8)(g[0].x, g[1].x, g[2].x, g[3].x, g[4].x, g[5].x, g[6].x, g[7].x),
+                           (float8)(g[0].y, g[1].y, g[2].y, g[3].y, g[4].y, g[5].y, g[6].y, g[7].y),
+                           (float8)(g[0].z, g[1].z, g[2].z, g[3].z, g[4].z, g[5].z, g[6].z, g[7].z),
+                           (float8)(g[0].w, g[1].w, g[2].w, g[3].w, g[4].w, g[5].w, g[6].w, g[7].w), 0.0f, INFINITY),
+          0, lanes);
+  inLanes[i] = lanes[i & 7u];
 }
 __kernel void testTriangle(__global const float4* o, __global const float4* d, __global const float4* p,
                            __global float4* out)
@@ -132,7 +141,7 @@ cl_float4 unitFloat(std::mt19937& rng)
 
 } // namespace
 
-TEST_CASE("opencl blocks: ray-sphere on the device agrees with intersectSphere on random rays")
+TEST_CASE("opencl blocks: ray-sphere on the device agrees with intersectSphere on random rays, in lanes too")
 {
   std::mt19937 rng(17);
   std::uniform_real_distribution<float> pos(-10, 10), rad(0.1f, 3), near(-1.5f, 1.5f);
@@ -147,8 +156,13 @@ TEST_CASE("opencl blocks: ray-sphere on the device agrees with intersectSphere o
   }
   TestDevice& dev = device();
   const cl::Buffer bo = dev.input(o), bd = dev.input(d), bs = dev.input(s), bt = dev.output(kCount * sizeof(float));
-  dev.run("testSphere", kCount, {&bo, &bd, &bs, &bt});
-  const std::vector<float> t = dev.read<float>(bt, kCount);
+  const cl::Buffer b8 = dev.output(kCount * sizeof(float));
+  dev.run("testSphere", kCount, {&bo, &bd, &bs, &bt, &b8});
+  const std::vector<float> t = dev.read<float>(bt, kCount), t8 = dev.read<float>(b8, kCount);
+  // The eight lanes against intersectSphere on the device: the same bits (the walk's shadow rays rely on it).
+  std::size_t lanesDiffer = 0;
+  for (std::size_t i = 0; i < kCount; ++i)
+    lanesDiffer += std::memcmp(&t[i], &t8[i], sizeof(float)) != 0;
   std::size_t hits = 0, boundary = 0;
   double worst = 0;
   for (std::size_t i = 0; i < kCount; ++i) {
@@ -172,9 +186,10 @@ TEST_CASE("opencl blocks: ray-sphere on the device agrees with intersectSphere o
     CHECK(error <= 1e-4);
   }
   std::cout << "ray-sphere: " << hits << " hits of " << kCount << ", worst relative error of t " << worst << ", "
-            << boundary << " grazing rays answered differently\n";
+            << boundary << " grazing rays answered differently; " << lanesDiffer << " unlike in the eight lanes\n";
   CHECK(hits > kCount / 4);
   CHECK(double(boundary) <= kMaxBoundaryShare * kCount);
+  CHECK(lanesDiffer == 0);
 }
 
 TEST_CASE("opencl blocks: ray-triangle on the device agrees with intersectTriangle on random rays")
