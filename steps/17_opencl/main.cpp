@@ -420,7 +420,11 @@ int main(int argc, char** argv)
     if (options.verbose())
       std::cerr << chapter.binary << ": plan: on " << device.name << " (" << device.platform << ", "
                 << device.computeUnits << " compute units), wavefronts of up to " << capacity << " paths; "
-                << (scene.usesAccelerator() ? "chapter 9's tree" : "a flat list of primitives") << " in its memory\n";
+                << (scene.usesAccelerator() ? "chapter 9's tree" : "a flat list of primitives") << " in its memory, "
+                << (device.gpu                  ? "tested one box or sphere at a time (a GPU)"
+                    : scene.usesAccelerator() ? "a node's eight boxes tested at once in float8 lanes (a CPU device)"
+                                              : "its spheres tested eight at a time in float8 lanes (a CPU device)")
+                << "\n";
     std::shared_ptr<DeviceWavefront> wavefront;
     try {
       wavefront = std::make_shared<DeviceWavefront>(device, scene, sampleLights, heuristicOption(options), capacity);
