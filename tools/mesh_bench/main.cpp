@@ -220,10 +220,13 @@ bool parse(int argc, char** argv, Options& o)
 
 } // namespace
 
-// Rays through the shared edges of a mesh (see "Edge rays" above): `count` of them, each with the distance along
-// it of the point of the edge it is aimed at, in `reach`.
+// How far before its edge an edge ray starts, as a share of the mesh's size (`size`, its bounding sphere's radius).
+constexpr Real kEdgeRayLead = Real(0.01);
+
+// Rays through the shared edges of a mesh (see "Edge rays" above): `count` of them, each starting kEdgeRayLead · size
+// before the point of the edge it is aimed at.
 std::vector<Ray> edgeRays(const std::vector<Vec3>& positions, const std::vector<Triangle>& triangles, Real size,
-                          std::size_t count, Pcg32& rng, std::vector<Real>& reach)
+                          std::size_t count, Pcg32& rng)
 {
   // The edges two triangles share: (lower vertex, higher vertex, triangle), sorted, then the runs of exactly two.
   std::vector<std::array<std::uint32_t, 3>> sides;
@@ -265,8 +268,7 @@ std::vector<Ray> edgeRays(const std::vector<Vec3>& positions, const std::vector<
     if (!(s1 * s2 < 0) || std::abs(s1) < Real(0.05) * scale || std::abs(s2) < Real(0.05) * scale)
       continue;
     const Vec3 target = a + edge * (Real(0.05) + Real(0.9) * uniform());
-    rays.push_back(Ray{target - d * (Real(0.01) * size), d, 0, kInfinity});
-    reach.push_back(Real(0.01) * size);
+    rays.push_back(Ray{target - d * (kEdgeRayLead * size), d, 0, kInfinity});
   }
   return rays;
 }
@@ -571,14 +573,13 @@ int main(int argc, char** argv)
                 "mesh's size)\n",
                 agree, total, 100.0 * double(agree) / double(total));
     // Edge rays: a hit up to the edge (with float's slack), or the ray went through a crack.
-    std::vector<Real> reach;
-    const std::vector<Ray> edges = edgeRays(mesh.positions, triangles, radius, 100000, rng, reach);
+    const std::vector<Ray> edges = edgeRays(mesh.positions, triangles, radius, 100000, rng);
+    const Real before = (kEdgeRayLead + Real(1e-4)) * radius; // the edge, with float's slack
     std::size_t ourLeaks = 0, theirLeaks = 0;
-    for (std::size_t i = 0; i < edges.size(); ++i) {
-      const Real before = reach[i] + Real(1e-4) * radius;
-      const std::optional<BvhHit> a = bvh.intersect(edges[i]);
+    for (const Ray& r : edges) {
+      const std::optional<BvhHit> a = bvh.intersect(r);
       ourLeaks += !(a && a->t <= before);
-      const RTCRayHit b = embreeHit(edges[i]);
+      const RTCRayHit b = embreeHit(r);
       theirLeaks += !(b.hit.geomID != RTC_INVALID_GEOMETRY_ID && double(b.ray.tfar) <= double(before));
     }
     std::printf("edge rays: of %zu rays through edges that two triangles share, raylife lets %zu through, Embree "
