@@ -693,6 +693,38 @@ void TriangleHitPoints(const TriangleHitInput& in, std::size_t count, const Tria
 }
 /// [triangleHitPoints]
 
+/// [pinholeDirections]
+// Camera::ray(film) through a pinhole, lane by lane: the film position, the image plane's point u·x + v·y − w at
+// z = 1, and glm::normalize (v · 1/√(v·v)).
+void PinholeDirections(const Camera& camera, const FilmInput& in, std::size_t count, const DirectionOutput& out)
+{
+  const D d;
+  const std::size_t lanes = hn::Lanes(d);
+  const V one = hn::Set(d, Real(1)), two = hn::Set(d, Real(2));
+  const V width = hn::Set(d, Real(camera.width())), height = hn::Set(d, Real(camera.height()));
+  const V halfWidth = hn::Set(d, camera.halfWidth()), halfHeight = hn::Set(d, camera.halfHeight());
+  const CameraBasis& b = camera.basis();
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
+    const V strata = load(in.strata);
+    const V filmX = hn::Add(load(in.x), hn::Div(load(in.offsetX), strata));
+    const V filmY = hn::Add(load(in.y), hn::Div(load(in.offsetY), strata));
+    // (2·film.x / width − 1)·halfWidth, (1 − 2·film.y / height)·halfHeight: row 0 at the top.
+    const V x = hn::Mul(hn::Sub(hn::Div(hn::Mul(two, filmX), width), one), halfWidth);
+    const V y = hn::Mul(hn::Sub(one, hn::Div(hn::Mul(two, filmY), height)), halfHeight);
+    auto axis = [&](Real u, Real v, Real w) {
+      return hn::Sub(hn::Add(hn::Mul(hn::Set(d, u), x), hn::Mul(hn::Set(d, v), y)), hn::Set(d, w));
+    };
+    const V vx = axis(b.u.x, b.v.x, b.w.x), vy = axis(b.u.y, b.v.y, b.w.y), vz = axis(b.u.z, b.v.z, b.w.z);
+    const V inv = hn::Div(one, hn::Sqrt(hn::Add(hn::Add(hn::Mul(vx, vx), hn::Mul(vy, vy)), hn::Mul(vz, vz))));
+    storeLanes(d, hn::Mul(vx, inv), out.dx.data(), i, n);
+    storeLanes(d, hn::Mul(vy, inv), out.dy.data(), i, n);
+    storeLanes(d, hn::Mul(vz, inv), out.dz.data(), i, n);
+  }
+}
+/// [pinholeDirections]
+
 /// [pointLightRays]
 void PointLightRays(const PointLightInput& in, std::size_t count, const PointLightOutput& out)
 {
@@ -1040,6 +1072,7 @@ HWY_EXPORT(TriangleHitPoints);
 HWY_EXPORT(SurfaceLightSamples);
 HWY_EXPORT(GlossyBounces);
 HWY_EXPORT(PointLightRays);
+HWY_EXPORT(PinholeDirections);
 HWY_EXPORT(GuidedWarps);
 HWY_EXPORT(GuideCells);
 HWY_EXPORT(LanesOf);
@@ -1122,6 +1155,11 @@ void glossyBounces(const GlossyBounceInput& in, std::size_t count, const GlossyB
 void pointLightRays(const PointLightInput& in, std::size_t count, const PointLightOutput& out)
 {
   HWY_DYNAMIC_DISPATCH(PointLightRays)(in, count, out);
+}
+
+void pinholeDirections(const Camera& camera, const FilmInput& in, std::size_t count, const DirectionOutput& out)
+{
+  HWY_DYNAMIC_DISPATCH(PinholeDirections)(camera, in, count, out);
 }
 
 void shadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const ShadowSpawnOutput& out)

@@ -23,6 +23,7 @@
 #include "core/sample_tree.h"
 #include "geometry/ray.h"
 #include "geometry/sphere.h"
+#include "scene/camera.h"
 
 #include <cstddef>
 #include <cstdint>
@@ -449,6 +450,27 @@ struct PointLightOutput {
 /// light (its origin and tmax; its direction is the arrival's), bit for bit: chapter 8's light sample of a point
 /// light, and its shadow ray.
 void pointLightRays(const PointLightInput& in, std::size_t count, const PointLightOutput& out);
+
+/// Camera rays' places on the film, stored by coordinate: each pixel sample's pixel and where in the pixel its ray
+/// goes, as pixelOffsetParts gives it (render_loop.h: PinholeSample::offset).
+struct FilmInput {
+  std::span<const Real> x;       ///< The pixel's column, in [0, width): its left edge on the film.
+  std::span<const Real> y;       ///< The pixel's row, in [0, height): its top edge.
+  std::span<const Real> offsetX; ///< The offset in the pixel as a quotient: its numerator, x.
+  std::span<const Real> offsetY; ///< Its numerator, y.
+  std::span<const Real> strata;  ///< Its denominator, ≥ 1 (1 where the offset is not a stratum's).
+};
+
+/// Unit directions, stored by coordinate.
+struct DirectionOutput {
+  std::span<Real> dx; ///< x.
+  std::span<Real> dy; ///< y.
+  std::span<Real> dz; ///< z.
+};
+
+/// For samples [0, count): the direction of camera.ray(film), film = (x, y) + (offsetX, offsetY) / strata, bit for
+/// bit: the pinhole camera's primary rays (their origin is the eye, their tmax +∞), as every chapter makes them.
+void pinholeDirections(const Camera& camera, const FilmInput& in, std::size_t count, const DirectionOutput& out);
 
 /// An instruction set the kernels are compiled for and this CPU runs.
 struct SimdTarget {

@@ -188,26 +188,49 @@ struct PrimarySample {
   Sampler sampler; ///< The sample's random numbers from here on: the estimator's.
 };
 
-/// Where sample `s` of a pixel falls inside it, in [0, 1)², for a render whose samples fall by `mode`: the centre
-/// (PixelSampling::Centre); else, with `n` > 0 strata a side, jittered in its stratum when s < n² and anywhere after;
-/// with n = 0, point s of the pixel's scrambled Sobol `sequence`, stratified at every power of two and in every
-/// aligned block of 16 samples (what a pixel takes between two adaptive checkpoints is whole such blocks). Draws two
-/// numbers from `sampler` where it jitters. (Always inlined: it runs once per sample, and as a call chapter 6 made
-/// some 17 instructions a sample more.)
+/// Where sample `s` of a pixel falls inside it, as a quotient: the offset in [0, 1)² is numerator / strata.
+struct PixelOffsetParts {
+  Vec2 numerator; ///< The offset, or (jittered in a stratum) the stratum's corner plus the jitter, in [0, strata)².
+  Real strata;    ///< 1, or the strata a side (the stratum's numerator is divided by it), ≥ 1.
+};
+
+/// Where sample `s` of a pixel falls inside it, in [0, 1)², for a render whose samples fall by `mode`, as the
+/// quotient pixelOffset divides out: the centre (PixelSampling::Centre); else, with `n` > 0 strata a side, jittered
+/// in its stratum when s < n² and anywhere after; with n = 0, point s of the pixel's scrambled Sobol `sequence`,
+/// stratified at every power of two and in every aligned block of 16 samples (what a pixel takes between two
+/// adaptive checkpoints is whole such blocks). Draws two numbers from `sampler` where it jitters. (Chapter 16 divides
+/// many at once; always inlined, so that pixelOffset's division by 1 folds away.)
+[[gnu::always_inline]] inline PixelOffsetParts pixelOffsetParts(PixelSampling mode, int s, int n, Sampler& sampler,
+                                                               const PixelSequence& sequence)
+{
+  if (mode == PixelSampling::Centre)
+    return {Vec2(Real(0.5)), 1};
+  if (n == 0)
+    return {sequence.point(std::uint32_t(s)), 1};
+  const Vec2 jitter = sampler.next2D();
+  if (n == 1 || std::int64_t(s) >= std::int64_t(n) * n)
+    return {jitter, 1};
+  // Stratified: cell (s mod n, s div n) of an n × n grid, jittered inside the cell.
+  const Real cx = Real(s % n), cy = Real(s / n);
+  return {Vec2(cx + jitter.x, cy + jitter.y), Real(n)};
+}
+
+/// Where sample `s` of a pixel falls inside it, in [0, 1)²: pixelOffsetParts' quotient. (Always inlined: it runs
+/// once per sample, and as a call chapter 6 made some 17 instructions a sample more.)
 [[gnu::always_inline]] inline Vec2 pixelOffset(PixelSampling mode, int s, int n, Sampler& sampler,
                                                const PixelSequence& sequence)
 {
-  if (mode == PixelSampling::Centre)
-    return Vec2(Real(0.5));
-  if (n == 0)
-    return sequence.point(std::uint32_t(s));
-  const Vec2 jitter = sampler.next2D();
-  if (n == 1 || std::int64_t(s) >= std::int64_t(n) * n)
-    return jitter;
-  // Stratified: cell (s mod n, s div n) of an n × n grid, jittered inside the cell.
-  const Real cx = Real(s % n), cy = Real(s / n);
-  return Vec2((cx + jitter.x) / Real(n), (cy + jitter.y) / Real(n));
+  const PixelOffsetParts parts = pixelOffsetParts(mode, s, n, sampler, sequence);
+  return parts.strata == 1 ? parts.numerator : parts.numerator / parts.strata;
 }
+
+/// A pixel sample of a camera without a lens, made in two halves (PrimaryRays::pinholeSample): its random numbers
+/// and time here, its ray's direction later (pinholeDirections in render/ray_stream.h, many at once).
+struct PinholeSample {
+  Sampler sampler;         ///< The sample's random numbers from here on: the estimator's.
+  PixelOffsetParts offset; ///< Where in its pixel its ray goes.
+  Real time = 0;           ///< The ray's time in [0, 1) (0 in a still scene).
+};
 
 /// Makes pixel samples' primary rays exactly as render() makes them for every estimator: where in the pixel (its
 /// stratum or its PixelSequence), then a point on the lens and a time where the settings ask for them. So a
@@ -238,6 +261,19 @@ public:
     if (motion_)
       ray.time = sampler.next1D();
     return ray;
+  }
+  /// Whether the rays come through a pinhole (no point on a lens is drawn): then pinholeSample and
+  /// Camera::ray(film) make what make does.
+  bool pinhole() const { return !lens_; }
+  /// make(key)'s first half, where pinhole() holds: the sampler, having drawn what the ray takes, where in the pixel
+  /// the ray goes, and its time. Its ray is camera().ray(film) with film = (x, y) + offset.numerator / offset.strata.
+  PinholeSample pinholeSample(const PixelSampleKey& key) const
+  {
+    PinholeSample p{Sampler(seed_, key.x, key.y, std::uint64_t(key.sample)), {}, 0};
+    p.offset = pixelOffsetParts(pixelSampling_, key.sample, strata_, p.sampler, PixelSequence(seed_, key.x, key.y));
+    if (motion_)
+      p.time = p.sampler.next1D();
+    return p;
   }
   /// The camera the rays come from.
   const Camera& camera() const { return camera_; }

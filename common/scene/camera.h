@@ -70,6 +70,10 @@ public:
   const CameraBasis& basis() const { return basis_; }
   /// The centre of projection.
   const Vec3& eye() const { return eye_; }
+  /// Half the image plane's width at distance 1 from the eye, tan(hfov/2) (ray() maps the film onto it).
+  Real halfWidth() const { return halfWidth_; }
+  /// Half the image plane's height at distance 1 from the eye, tan(vfov/2).
+  Real halfHeight() const { return halfHeight_; }
   /// Image width in pixels.
   int width() const { return width_; }
   /// Image height in pixels.

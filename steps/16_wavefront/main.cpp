@@ -99,6 +99,16 @@ struct ShadowRays {
   }
 };
 
+/// The camera rays' places on the film by coordinate: generate's input to pinholeDirections.
+struct FilmColumns {
+  std::vector<Real> x, y, offsetX, offsetY, strata;
+  void resize(std::size_t n)
+  {
+    for (std::vector<Real>* v : {&x, &y, &offsetX, &offsetY, &strata})
+      atLeast(*v, n);
+  }
+};
+
 /// The sphere hits of a round by coordinate: extend's input to sphereHitPoints and its output.
 struct SphereHitColumns {
   std::vector<std::uint32_t> path; // which path each entry is
@@ -197,6 +207,7 @@ struct TriangleLightColumns {
 /// first has sized them).
 struct Queues {
   Paths paths;
+  FilmColumns film; // generate: where on the film each camera ray goes
   // extend → shade: the nearest hit of every path's ray; found[i] says whether path i hit anything.
   std::vector<Hit> hit;
   std::vector<std::uint8_t> found;
@@ -256,21 +267,43 @@ struct Stages {
 };
 
 /// [generate]
-// Stage 1, generate: each pixel sample's camera ray and random numbers, made as every chapter makes them.
-void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, Paths& paths)
+// Stage 1, generate: each pixel sample's camera ray and random numbers, made as every chapter makes them. Through a
+// pinhole, each sample's numbers first (where in its pixel its ray goes), then every ray's direction at once.
+void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, Paths& paths, FilmColumns& film)
 {
-  paths.resize(keys.size());
-  for (std::size_t i = 0; i < keys.size(); ++i) {
-    const PrimarySample p = primary.make(keys[i]);
-    paths.ray.set(i, p.ray);
-    paths.time[i] = p.ray.time;
+  const std::size_t n = keys.size();
+  paths.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
     paths.beta[i] = Color(1);
-    paths.sampler[i] = p.sampler;
     paths.specular[i] = 1;
     paths.bsdfPdf[i] = 0;
     paths.from[i] = Vec3(0);
     paths.slot[i] = std::uint32_t(i);
   }
+  if (!primary.pinhole()) { // (a lens: one ray at a time)
+    for (std::size_t i = 0; i < n; ++i) {
+      const PrimarySample p = primary.make(keys[i]);
+      paths.ray.set(i, p.ray);
+      paths.time[i] = p.ray.time;
+      paths.sampler[i] = p.sampler;
+    }
+    return;
+  }
+  film.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const PinholeSample p = primary.pinholeSample(keys[i]);
+    paths.sampler[i] = p.sampler;
+    paths.time[i] = p.time;
+    film.x[i] = Real(keys[i].x), film.y[i] = Real(keys[i].y);
+    film.offsetX[i] = p.offset.numerator.x, film.offsetY[i] = p.offset.numerator.y, film.strata[i] = p.offset.strata;
+  }
+  pinholeDirections(primary.camera(), {film.x, film.y, film.offsetX, film.offsetY, film.strata}, n,
+                    {paths.ray.dx, paths.ray.dy, paths.ray.dz});
+  const Vec3& eye = primary.camera().eye();
+  std::fill_n(paths.ray.ox.begin(), n, eye.x);
+  std::fill_n(paths.ray.oy.begin(), n, eye.y);
+  std::fill_n(paths.ray.oz.begin(), n, eye.z);
+  std::fill_n(paths.ray.tmax.begin(), n, kInfinity);
 }
 /// [generate]
 
@@ -716,7 +749,7 @@ void connect(const Stages& st, Queues& q, std::span<Color> out)
 void renderWavefront(const Stages& st, Queues& q, const PrimaryRays& primary, std::span<const PixelSampleKey> keys,
                      int maxDepth, std::span<Color> out)
 {
-  generate(primary, keys, q.paths);
+  generate(primary, keys, q.paths, q.film);
   for (int bounce = 0; q.paths.size() > 0; ++bounce) {
     extend(st, q, bounce == 0);
     q.shadows.clear(q.paths.size());

@@ -5,12 +5,14 @@
 // sphereConePdf, those towards triangle lights against sampleTriangleLight, the shadow rays against offsetRayOrigin
 // and intersectSphere or intersectTriangle, the diffuse and glossy bounces against lambertianSample and phongSample
 // in Frame, the light samples' worth against bsdfEval, bsdfPdf and the MIS weights, the light
-// guide's cells and warps against LightSampler::cellOf and SampleTree::sampleMixture; on random rays, hits and
+// guide's cells and warps against LightSampler::cellOf and SampleTree::sampleMixture, the pinhole camera's rays
+// against PrimaryRays::make; on random rays, hits and
 // numbers, with stream lengths that are not a multiple of the lanes.
 #include "core/frame.h"
 #include "core/rng.h"
 #include "geometry/hit.h"
 #include "render/ray_stream.h"
+#include "render/render_loop.h"
 #include "shading/material.h"
 #include "scene/light_sampling.h"
 #include "scene/scene.h"
@@ -781,5 +783,76 @@ TEST_CASE("stream kernels: guideCells equals LightSampler::cellOf, bit for bit, 
     // Without a guide every point's cell is −1.
     guideCells(GuideCellGrid{}, px, py, pz, count, cell);
     CHECK(std::count(cell.begin(), cell.end(), -1) == std::ptrdiff_t(count));
+  });
+}
+
+TEST_CASE("stream kernels: pinholeSample and pinholeDirections make PrimaryRays::make's camera rays, bit for bit")
+{
+  // Cameras of several shapes and orientations; samples at the centre, jittered in strata (a square count, and one
+  // whose last samples fall outside the grid), on the pixel's sequence (adaptive), with and without times.
+  struct Setup {
+    Vec3 eye, focal, up;
+    Real vfov;
+    int width, height;
+  };
+  const Setup cameras[] = {{Vec3(278, 273, -800), Vec3(278, 273, 0), Vec3(0, 1, 0), 39, 160, 120},
+                           {Vec3(13, 2, 3), Vec3(0, 0, 0), Vec3(0, 1, 0), 20, 37, 91},
+                           {Vec3(-1e3, 5e2, 3e-3), Vec3(2, -7, 1e3), Vec3(0.3, 0.2, 1), Real(151.5), 1, 1}};
+  struct Sampling {
+    PixelSampling mode;
+    std::optional<int> spp;
+    std::optional<double> adaptive;
+    bool motion;
+  };
+  const Sampling samplings[] = {{PixelSampling::Centre, 4, std::nullopt, false},
+                                {PixelSampling::Jittered, 16, std::nullopt, false},
+                                {PixelSampling::Jittered, 7, std::nullopt, true},
+                                {PixelSampling::Jittered, 1, std::nullopt, false},
+                                {PixelSampling::Jittered, std::nullopt, 0.05, true}};
+  forEachTarget([&](const SimdTarget&) {
+    for (const Setup& c : cameras)
+      for (const Sampling& sampling : samplings) {
+        const auto basis = makeCameraBasis(c.eye, c.focal, c.up);
+        REQUIRE(std::holds_alternative<CameraBasis>(basis));
+        const Camera camera(std::get<CameraBasis>(basis), c.eye, c.vfov, c.width, c.height);
+        RenderSettings settings;
+        settings.spp = sampling.spp;
+        settings.seed = 11;
+        settings.pixelSampling = sampling.mode;
+        settings.adaptive = sampling.adaptive;
+        settings.motion = sampling.motion;
+        const PrimaryRays primary(camera, settings);
+        REQUIRE(primary.pinhole());
+        const std::size_t count = 1003;
+        Pcg32 rng(5, 21);
+        std::vector<PixelSampleKey> keys(count);
+        std::vector<Real> x(count), y(count), offsetX(count), offsetY(count), strata(count), dx(count), dy(count),
+            dz(count);
+        std::vector<PinholeSample> samples;
+        for (std::size_t i = 0; i < count; ++i) {
+          keys[i] = {int(rng.nextUint() % std::uint32_t(c.width)), int(rng.nextUint() % std::uint32_t(c.height)),
+                     int(rng.nextUint() % 40)};
+          samples.push_back(primary.pinholeSample(keys[i]));
+          x[i] = Real(keys[i].x), y[i] = Real(keys[i].y);
+          offsetX[i] = samples[i].offset.numerator.x, offsetY[i] = samples[i].offset.numerator.y;
+          strata[i] = samples[i].offset.strata;
+        }
+        pinholeDirections(camera, {x, y, offsetX, offsetY, strata}, count, {dx, dy, dz});
+        std::size_t wrong = 0, stratified = 0;
+        for (std::size_t i = 0; i < count; ++i) {
+          PrimarySample expected = primary.make(keys[i]);
+          stratified += strata[i] > 1;
+          const Ray& r = expected.ray;
+          wrong += !sameBits(dx[i], r.direction.x) || !sameBits(dy[i], r.direction.y) ||
+                   !sameBits(dz[i], r.direction.z) || r.origin != c.eye || r.tmax != kInfinity ||
+                   !sameBits(samples[i].time, r.time);
+          // The two samplers go on with the same numbers.
+          for (int k = 0; k < 3; ++k)
+            wrong += !sameBits(samples[i].sampler.next1D(), expected.sampler.next1D());
+        }
+        INFO("camera " << c.width << "x" << c.height << ", " << stratified << " samples in strata");
+        CHECK(wrong == 0);
+        CHECK((stratified > 0) == (sampling.mode == PixelSampling::Jittered && sampling.spp && *sampling.spp > 1));
+      }
   });
 }
