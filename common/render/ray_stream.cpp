@@ -104,15 +104,16 @@ HWY_INLINE V firstRoot(D d, V ox, V oy, V oz, V dx, V dy, V dz, V tmax, V cx, V 
   return hn::IfThenElse(in0, t0, hn::IfThenElse(in1, t1, inf));
 }
 
-void NearestSpheres(const SphereList& spheres, const RayStream& rays, std::size_t count, Real* tOut,
-                    std::int32_t* sphereOut)
+void NearestSpheres(const SphereList& spheres, const RayStream& rays, std::size_t first, std::size_t count,
+                    Real* tOut, std::int32_t* sphereOut)
 {
   const D d;
   const std::size_t lanes = hn::Lanes(d);
   HWY_ALIGN Real index[hn::MaxLanes(d)];
-  for (std::size_t i = 0; i < count; i += lanes) {
-    // The last group of lanes may run past `count`: it repeats the last ray there, and stores only what is in.
-    const std::size_t n = std::min(lanes, count - i);
+  const std::size_t end = first + count;
+  for (std::size_t i = first; i < end; i += lanes) {
+    // The last group of lanes may run past the end: it repeats the last ray there, and stores only what is in.
+    const std::size_t n = std::min(lanes, end - i);
     auto load = [&](const std::vector<Real>& v) { return loadLanes(d, v.data(), i, n); };
     const V ox = load(rays.ox), oy = load(rays.oy), oz = load(rays.oz);
     const V dx = load(rays.dx), dy = load(rays.dy), dz = load(rays.dz);
@@ -1109,7 +1110,13 @@ SphereList SphereList::from(std::span<const Sphere> spheres)
 void nearestSpheres(const SphereList& spheres, const RayStream& rays, std::size_t count, std::span<Real> t,
                     std::span<std::int32_t> sphere)
 {
-  HWY_DYNAMIC_DISPATCH(NearestSpheres)(spheres, rays, count, t.data(), sphere.data());
+  HWY_DYNAMIC_DISPATCH(NearestSpheres)(spheres, rays, 0, count, t.data(), sphere.data());
+}
+
+void nearestSpheres(const SphereList& spheres, const RayStream& rays, std::size_t first, std::size_t count,
+                    std::span<Real> t, std::span<std::int32_t> sphere)
+{
+  HWY_DYNAMIC_DISPATCH(NearestSpheres)(spheres, rays, first, count, t.data(), sphere.data());
 }
 
 void anySpheres(const SphereList& spheres, const RayStream& rays, std::size_t count,

@@ -76,6 +76,10 @@ struct SphereList {
 /// @param sphere out: sphere[i] the sphere's index in the list, or −1 when none is hit; at least `count` entries.
 void nearestSpheres(const SphereList& spheres, const RayStream& rays, std::size_t count, std::span<Real> t,
                     std::span<std::int32_t> sphere);
+/// nearestSpheres for rays [first, first + count) of `rays` alone, into entries [first, first + count) of t and
+/// sphere (each at least first + count long).
+void nearestSpheres(const SphereList& spheres, const RayStream& rays, std::size_t first, std::size_t count,
+                    std::span<Real> t, std::span<std::int32_t> sphere);
 
 /// For rays [0, count): whether any sphere of `spheres` is hit in [0, tmax), exactly when nearestSpheres finds one.
 /// @param spheres the list. @param rays the rays (at least `count`). @param count how many rays to trace.

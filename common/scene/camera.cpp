@@ -57,6 +57,21 @@ Vec3 Camera::imagePlaneDirection(Vec2 film) const
 Ray Camera::ray(Vec2 film) const { return Ray{eye_, glm::normalize(imagePlaneDirection(film)), 0, kInfinity}; }
 // [camera_ray]
 
+PinholeFrustum Camera::frustum(Vec2 filmMin, Vec2 filmMax) const
+{
+  // The sides at z = 1 (imagePlaneDirection's x and y of the corners; y runs up as film y runs down). A point
+  // eye + q lies in the pyramid when its image-plane coordinates x = q·u / z and y = q·v / z, z = −q·w its depth,
+  // lie within them: q·n ≥ 0 for each side's inward normal n, e.g. q·u − left·z = q·(u + left·w) for the left.
+  const Real left = (2 * filmMin.x / Real(width_) - 1) * halfWidth_;
+  const Real right = (2 * filmMax.x / Real(width_) - 1) * halfWidth_;
+  const Real top = (1 - 2 * filmMin.y / Real(height_)) * halfHeight_;
+  const Real bottom = (1 - 2 * filmMax.y / Real(height_)) * halfHeight_;
+  return PinholeFrustum{eye_,
+                        -basis_.w,
+                        {glm::normalize(basis_.u + left * basis_.w), glm::normalize(-basis_.u - right * basis_.w),
+                         glm::normalize(-basis_.v - top * basis_.w), glm::normalize(basis_.v + bottom * basis_.w)}};
+}
+
 // [thin_lens]
 Ray Camera::ray(Vec2 film, Vec2 lens) const
 {

@@ -29,6 +29,31 @@ struct BasisError {
 ///         view direction, or any input is not finite. Never returns a basis with a NaN in it.
 std::variant<CameraBasis, BasisError> makeCameraBasis(const Vec3& eye, const Vec3& focal, const Vec3& up);
 
+/// The pyramid of a camera's pinhole rays through a rectangle of the film (Camera::frustum): its apex at the eye,
+/// its four sides' unit inward normals. For culling: chapter 16 tests a block of pixels' camera rays against only
+/// the spheres the block may see.
+struct PinholeFrustum {
+  Vec3 eye;       ///< The apex: where every ray starts.
+  Vec3 forward;   ///< The view direction, −w: a point ahead of the eye has a positive component along it.
+  Vec3 inward[4]; ///< Unit normals of the sides (left, right, top, bottom), pointing into the pyramid.
+
+  /// Whether a ray of the pyramid may meet the sphere (center, radius > 0): false only when the sphere lies wholly
+  /// outside a side, or behind the eye, by a margin of 10⁻⁴ of its distance from the eye plus its radius, far
+  /// beyond the rounding of Camera::ray and of intersectSphere, in float as in double. So a false is certain; a
+  /// true may be a sphere none of the rays meets.
+  bool mayMeet(const Vec3& center, Real radius) const
+  {
+    const Vec3 q = center - eye;
+    const Real reach = radius + Real(1e-4) * (glm::length(q) + radius);
+    if (glm::dot(q, forward) < -reach)
+      return false;
+    for (const Vec3& n : inward)
+      if (glm::dot(q, n) < -reach)
+        return false;
+    return true;
+  }
+};
+
 /// A camera that maps a position on the image (and, for a thin lens, a point on the lens) to a primary ray.
 ///
 /// Image coordinates: x to the right in [0, width], y downwards in [0, height]; pixel (i, j) covers
@@ -57,6 +82,8 @@ public:
   /// concentric disk mapping): from that point on the lens towards where the pinhole ray of `film` meets the plane
   /// of focus. With aperture 0 it is ray(film), bit for bit.
   Ray ray(Vec2 film, Vec2 lens) const;
+  /// The pyramid the pinhole rays ray(film) fill for film positions in [filmMin, filmMax] (pixels, min ≤ max).
+  PinholeFrustum frustum(Vec2 filmMin, Vec2 filmMax) const;
   /// The image position (pixels, as ray() takes it) whose ray passes through `point` (world space): the inverse of
   /// ray(), for light paths that reach the camera (chapter 13). Nothing when the point lies on or behind the plane of
   /// the eye, or projects outside [0, width) × [0, height).

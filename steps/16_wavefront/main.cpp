@@ -99,8 +99,10 @@ struct ShadowRays {
   }
 };
 
-/// The camera rays' places on the film by coordinate: generate's input to pinholeDirections.
+/// The camera rays' places on the film by coordinate: generate's input to pinholeDirections (and extend's, to find
+/// each camera ray's block of pixels), and the pinhole camera they come from (null for rays through a lens).
 struct FilmColumns {
+  const Camera* camera = nullptr;
   std::vector<Real> x, y, offsetX, offsetY, strata;
   void resize(std::size_t n)
   {
@@ -203,6 +205,17 @@ struct TriangleLightColumns {
   }
 };
 
+/// Camera rays come in blocks of kBlock × kBlock pixels (extend), each tested against the spheres it may see.
+constexpr int kBlock = 8;
+
+/// The spheres a block of pixels may see (PinholeFrustum::mayMeet), in the scene's order: the list, and each entry's
+/// number in the scene.
+struct BlockSpheres {
+  bool ready = false;
+  SphereList list;
+  std::vector<std::int32_t> index;
+};
+
 /// The queues and scratch arrays of one wavefront, kept from round to round (a round allocates nothing once the
 /// first has sized them).
 struct Queues {
@@ -213,6 +226,7 @@ struct Queues {
   std::vector<std::uint8_t> found;
   std::vector<Real> t;                 // where each ray hits,
   std::vector<std::int32_t> primitive; // and what (a primitive's number; −1: nothing)
+  std::vector<BlockSpheres> blocks;           // (camera rays: each block's spheres, found the first time it comes)
   std::vector<Ray> rays;                      // (camera rays, for the tree's packets)
   std::vector<std::optional<BvhHit>> hits;    // (and their answers)
   SphereHitColumns sphereHits;      // and the hit records' points, normals and error bounds
@@ -262,6 +276,7 @@ struct Stages {
   bool sampleLights;
   MisHeuristic heuristic;
   bool sphereKernels;
+  bool cameraBlocks; // a tree over still spheres alone: pinhole camera rays go block by block (extend)
   SphereList spheres;
   bool triangleLights; // some triangle emits: its light samples' columns are needed
 };
@@ -280,6 +295,7 @@ void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, 
     paths.from[i] = Vec3(0);
     paths.slot[i] = std::uint32_t(i);
   }
+  film.camera = primary.pinhole() ? &primary.camera() : nullptr;
   if (!primary.pinhole()) { // (a lens: one ray at a time)
     for (std::size_t i = 0; i < n; ++i) {
       const PrimarySample p = primary.make(keys[i]);
@@ -307,12 +323,38 @@ void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, 
 }
 /// [generate]
 
+// The spheres block (bx, by) of the image may see, found the first time its rays come (each thread keeps its own).
+const BlockSpheres& blockSpheres(const Scene& scene, Queues& q, int bx, int by)
+{
+  const Camera& camera = *q.film.camera;
+  const int across = (camera.width() + kBlock - 1) / kBlock, down = (camera.height() + kBlock - 1) / kBlock;
+  if (q.blocks.size() != std::size_t(across) * std::size_t(down))
+    q.blocks.assign(std::size_t(across) * std::size_t(down), BlockSpheres{});
+  BlockSpheres& b = q.blocks[std::size_t(by) * std::size_t(across) + std::size_t(bx)];
+  if (!b.ready) {
+    const PinholeFrustum frustum =
+        camera.frustum(Vec2(Real(bx * kBlock), Real(by * kBlock)),
+                       Vec2(Real(std::min((bx + 1) * kBlock, camera.width())),
+                            Real(std::min((by + 1) * kBlock, camera.height()))));
+    std::vector<Sphere> seen;
+    for (std::size_t k = 0; k < scene.spheres.size(); ++k)
+      if (frustum.mayMeet(scene.spheres[k].center, scene.spheres[k].radius)) {
+        seen.push_back(scene.spheres[k]);
+        b.index.push_back(std::int32_t(k));
+      }
+    b.list = SphereList::from(seen);
+    b.ready = true;
+  }
+  return b;
+}
+
 /// [extend]
 // Stage 2, extend: the nearest hit of every path's ray. First what each ray hits: in a short list of still spheres
-// one ray per lane (the stream kernel); in a tree, camera rays in packets of sixteen neighbours, the others one ray at
-// a time (chapter 9's walk, which tests a node's eight boxes in the lanes). Then the hit records: on still spheres
-// and on triangles many at a time, on moving spheres one by one. (A short list with triangles or motion goes through
-// the scene's own query, record and all.)
+// one ray per lane (the stream kernel); in a tree, camera rays through a pinhole block of pixels by block, against
+// the few spheres the block may see (the stream kernel again; with triangles, motion or a lens, in packets of sixteen
+// neighbours), the others one ray at a time (chapter 9's walk, which tests a node's eight boxes in the lanes). Then
+// the hit records: on still spheres and on triangles many at a time, on moving spheres one by one. (A short list
+// with triangles or motion goes through the scene's own query, record and all.)
 void extend(const Stages& st, Queues& q, bool cameraRays)
 {
   const Scene& scene = st.scene;
@@ -322,6 +364,22 @@ void extend(const Stages& st, Queues& q, bool cameraRays)
   q.found.assign(n, 0);
   if (st.sphereKernels) {
     nearestSpheres(st.spheres, paths.ray, n, q.t, q.primitive);
+  } else if (st.cameraBlocks && cameraRays && q.film.camera) {
+    // Camera rays through a pinhole, block of pixels by block: a block's rays can meet only the spheres in the
+    // pyramid they fill, a few of the scene's, which the stream kernel tests in lanes (the nearest of them, in the
+    // scene's order, is the tree's answer: the others none of the rays meets).
+    for (std::size_t i = 0; i < n;) {
+      const int bx = int(q.film.x[i]) / kBlock, by = int(q.film.y[i]) / kBlock;
+      std::size_t end = i + 1;
+      while (end < n && int(q.film.x[end]) / kBlock == bx && int(q.film.y[end]) / kBlock == by)
+        ++end;
+      const BlockSpheres& b = blockSpheres(scene, q, bx, by);
+      nearestSpheres(b.list, paths.ray, i, end - i, q.t, q.primitive);
+      for (std::size_t k = i; k < end; ++k)
+        if (q.primitive[k] >= 0)
+          q.primitive[k] = b.index[std::size_t(q.primitive[k])];
+      i = end;
+    }
   } else if (scene.usesAccelerator() && cameraRays) {
     // Camera rays of neighbouring pixels enter nearly the same boxes: they walk the tree in packets.
     atLeast(q.rays, n), atLeast(q.hits, n);
@@ -793,20 +851,25 @@ int main(int argc, char** argv)
     const MisHeuristic heuristic = heuristicOption(options);
     // The stream kernels take a flat list of still spheres; a tree is walked one ray at a time.
     const bool sphereKernels = !scene.usesAccelerator() && scene.triangles.empty() && !scene.hasMotion();
+    const bool cameraBlocks = scene.usesAccelerator() && scene.triangles.empty() && !scene.hasMotion();
     if (options.verbose()) {
       const SimdTarget simd = currentSimdTarget();
       std::cerr << chapter.binary << ": plan: wavefronts of up to " << options.integer("--wavefront")
                 << " paths a thread; nearest hits and shadow rays "
                 << (sphereKernels ? "through the stream kernels"
-                    : scene.usesAccelerator() ? "through the tree (camera rays in packets of 16, the others one ray at a time)"
-                                              : "through the scene, one ray at a time (triangles or motion)")
+                    : cameraBlocks
+                        ? "through the tree one ray at a time, but camera rays through a pinhole by blocks of 8 x 8 "
+                          "pixels, each against the spheres it may see (through a lens: in packets of 16)"
+                    : scene.usesAccelerator()
+                        ? "through the tree (camera rays in packets of 16, the others one ray at a time)"
+                        : "through the scene, one ray at a time (triangles or motion)")
                 << "; the kernels run " << simd.lanes << " paths a vector (" << simd.name << ")\n";
     }
     LightSampler lights = makeLightSampler(chapter.binary, scene, options);
     GuideLanes guide(lights);
     const auto stages = std::make_shared<const Stages>(
         Stages{scene, std::move(lights), std::move(guide), planScene(scene, chapter.uses).lightSampling(), heuristic,
-               sphereKernels, SphereList::from(scene.spheres), triangleEmits(scene)});
+               sphereKernels, cameraBlocks, SphereList::from(scene.spheres), triangleEmits(scene)});
     // Each thread of the render gets its own queues.
     auto workers = [stages]() -> WavefrontFunction {
       return [stages, queues = std::make_shared<Queues>()](const Scene&, const PrimaryRays& primary,

@@ -1,5 +1,6 @@
 #include "scene/camera.h"
 #include "core/rng.h"
+#include "geometry/sphere.h"
 
 #include <catch2/catch.hpp>
 
@@ -95,4 +96,52 @@ TEST_CASE("primary directions are d = u·x + v·y − w·z - normalised - throug
   // The top edge's centre is exactly vfov/2 above the axis.
   const Ray top = camera.ray(Vec2(Real(width) / 2, 0));
   CHECK(std::acos(glm::dot(top.direction, -b.w)) == Approx(glm::radians(vfov) / 2).epsilon(1e-6));
+}
+
+TEST_CASE("a block's pyramid culls only spheres none of its rays meets, and culls most of the others")
+{
+  // Cameras looking every way, blocks of pixels anywhere on the film (a single pixel, 8 x 8, a whole row), and
+  // spheres from tiny to huge, many of them just outside a side of the block's pyramid or behind the eye. Each
+  // culled sphere must be missed by rays through random points of the block, its corners and edges included.
+  Sampler s(7, 0, 0, 0);
+  int culled = 0, kept = 0, keptAndMet = 0;
+  for (int c = 0; c < 60; ++c) {
+    const Vec3 eye = randomVector(s, 50), focal = eye + randomVector(s, 10);
+    const auto basis = makeCameraBasis(eye, focal, Vec3(0, 1, 0));
+    if (!std::holds_alternative<CameraBasis>(basis))
+      continue;
+    const int width = 40 + int(s.next1D() * 300), height = 30 + int(s.next1D() * 200);
+    const Camera camera(std::get<CameraBasis>(basis), eye, 20 + 120 * s.next1D(), width, height);
+    const int size = c % 3 == 0 ? 1 : 8;
+    const int x0 = int(s.next1D() * Real(width - size)), y0 = int(s.next1D() * Real(height - size));
+    const Vec2 lo{Real(x0), Real(y0)}, hi{Real(c % 5 == 0 ? width : x0 + size), Real(y0 + size)};
+    const PinholeFrustum frustum = camera.frustum(lo, hi);
+    for (int k = 0; k < 60; ++k) {
+      // A sphere near a ray of the block: on it, or moved sideways by up to twice its radius (either side of a side).
+      const Vec2 film(lo.x + (hi.x - lo.x) * s.next1D(), lo.y + (hi.y - lo.y) * s.next1D());
+      const Ray aim = camera.ray(film);
+      const Real radius = std::pow(Real(10), -3 + 6 * s.next1D());
+      const Real distance = k % 10 == 0 ? -radius * (1 + s.next1D()) : radius * (1 + 1e3 * s.next1D());
+      Vec3 center = aim.origin + distance * aim.direction + radius * (2 * s.next1D()) * randomVector(s, 1);
+      if (k % 2 == 1) // or anywhere around the camera (most of these the block's thin pyramid misses)
+        center = eye + randomVector(s, 100);
+      int met = 0;
+      for (int r = 0; r < 400; ++r) {
+        const Real fx = r < 4 ? Real(r % 2) : s.next1D(), fy = r < 4 ? Real(r / 2) : s.next1D();
+        const Ray ray = camera.ray(Vec2(lo.x + (hi.x - lo.x) * fx, lo.y + (hi.y - lo.y) * fy));
+        met += intersectSphere(ray.origin, ray.direction, center, radius, Real(0), kInfinity).has_value();
+      }
+      if (!frustum.mayMeet(center, radius)) {
+        ++culled;
+        INFO("camera " << c << ", sphere " << k);
+        CHECK(met == 0);
+      } else {
+        ++kept;
+        keptAndMet += met > 0;
+      }
+    }
+  }
+  INFO(culled << " culled, " << kept << " kept, " << keptAndMet << " of those met");
+  CHECK(culled > 1000);
+  CHECK(keptAndMet > kept / 2);
 }

@@ -143,6 +143,20 @@ TEST_CASE("stream kernels: nearestSpheres and anySpheres equal the loop over int
       }
       INFO(count << " rays, " << hits << " hit");
       CHECK(wrong == 0);
+      // A range of the rays alone: its entries the same, the others untouched.
+      if (count > 3) {
+        const std::size_t first = count / 3, part = count / 2;
+        std::vector<Real> tPart(count, Real(-7));
+        std::vector<std::int32_t> spherePart(count, -7);
+        nearestSpheres(list, c.rays, first, part, tPart, spherePart);
+        std::size_t wrongPart = 0;
+        for (std::size_t i = 0; i < count; ++i) {
+          const bool in = i >= first && i < first + part;
+          wrongPart += in ? (spherePart[i] != sphere[i] || !sameBits(tPart[i], t[i]))
+                          : (spherePart[i] != -7 || tPart[i] != Real(-7));
+        }
+        CHECK(wrongPart == 0);
+      }
     }
   });
 }
