@@ -205,15 +205,22 @@ struct TriangleLightColumns {
   }
 };
 
-/// Camera rays come in blocks of kBlock × kBlock pixels (extend), each tested against the spheres it may see.
+/// Camera rays come in blocks of kBlock × kBlock pixels (extend), each tested against the spheres it may see, which
+/// are found among those its region of kRegion × kRegion blocks may see, found among the scene's (in a scene of at
+/// most kMostCulledSpheres: finding them costs each region a pass over the spheres). A block that may see more than
+/// kMostBlockSpheres sends its rays through the tree's packets instead: the kernel's time grows with the spheres.
 constexpr int kBlock = 8;
+constexpr int kRegion = 8;
+constexpr std::size_t kMostCulledSpheres = 4096;
+constexpr std::size_t kMostBlockSpheres = 32;
 
-/// The spheres a block of pixels may see (PinholeFrustum::mayMeet), in the scene's order: the list, and each entry's
-/// number in the scene.
+/// The spheres a block (or a region) of pixels may see (PinholeFrustum::mayMeet): their numbers in the scene, in its
+/// order, and for a block the kernel's list of them (unless `packets`: too many).
 struct BlockSpheres {
   bool ready = false;
-  SphereList list;
+  bool packets = false;
   std::vector<std::int32_t> index;
+  SphereList list;
 };
 
 /// The queues and scratch arrays of one wavefront, kept from round to round (a round allocates nothing once the
@@ -226,7 +233,7 @@ struct Queues {
   std::vector<std::uint8_t> found;
   std::vector<Real> t;                 // where each ray hits,
   std::vector<std::int32_t> primitive; // and what (a primitive's number; −1: nothing)
-  std::vector<BlockSpheres> blocks;           // (camera rays: each block's spheres, found the first time it comes)
+  std::vector<BlockSpheres> blocks, regions;  // (camera rays: each block's spheres, found the first time it comes)
   std::vector<Ray> rays;                      // (camera rays, for the tree's packets)
   std::vector<std::optional<BvhHit>> hits;    // (and their answers)
   SphereHitColumns sphereHits;      // and the hit records' points, normals and error bounds
@@ -323,26 +330,59 @@ void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, 
 }
 /// [generate]
 
-// The spheres block (bx, by) of the image may see, found the first time its rays come (each thread keeps its own).
+// The spheres of `from` (numbers in the scene, in its order; all of them where null) that the camera's rays through
+// the film rectangle [lo, hi] may meet, into `out`.
+void cull(const Scene& scene, const Camera& camera, Vec2 lo, Vec2 hi, const std::vector<std::int32_t>* from,
+          std::vector<std::int32_t>& out)
+{
+  const PinholeFrustum frustum = camera.frustum(lo, hi);
+  auto test = [&](std::int32_t k) {
+    const Sphere& sphere = scene.spheres[std::size_t(k)];
+    if (frustum.mayMeet(sphere.center, sphere.radius))
+      out.push_back(k);
+  };
+  if (from)
+    for (const std::int32_t k : *from)
+      test(k);
+  else
+    for (std::size_t k = 0; k < scene.spheres.size(); ++k)
+      test(std::int32_t(k));
+}
+
+// The spheres block (bx, by) of the image may see, found the first time its rays come (each thread keeps its own),
+// among those its region may see.
 const BlockSpheres& blockSpheres(const Scene& scene, Queues& q, int bx, int by)
 {
   const Camera& camera = *q.film.camera;
   const int across = (camera.width() + kBlock - 1) / kBlock, down = (camera.height() + kBlock - 1) / kBlock;
-  if (q.blocks.size() != std::size_t(across) * std::size_t(down))
+  const int regionsAcross = (across + kRegion - 1) / kRegion, regionsDown = (down + kRegion - 1) / kRegion;
+  if (q.blocks.size() != std::size_t(across) * std::size_t(down)) {
     q.blocks.assign(std::size_t(across) * std::size_t(down), BlockSpheres{});
+    q.regions.assign(std::size_t(regionsAcross) * std::size_t(regionsDown), BlockSpheres{});
+  }
+  // A rectangle of whole blocks, [x0, x1) × [y0, y1) in blocks, on the film (cut at its edges).
+  auto film = [&](int x0, int y0, int x1, int y1) {
+    return std::pair{Vec2(Real(x0 * kBlock), Real(y0 * kBlock)),
+                     Vec2(Real(std::min(x1 * kBlock, camera.width())), Real(std::min(y1 * kBlock, camera.height())))};
+  };
   BlockSpheres& b = q.blocks[std::size_t(by) * std::size_t(across) + std::size_t(bx)];
   if (!b.ready) {
-    const PinholeFrustum frustum =
-        camera.frustum(Vec2(Real(bx * kBlock), Real(by * kBlock)),
-                       Vec2(Real(std::min((bx + 1) * kBlock, camera.width())),
-                            Real(std::min((by + 1) * kBlock, camera.height()))));
-    std::vector<Sphere> seen;
-    for (std::size_t k = 0; k < scene.spheres.size(); ++k)
-      if (frustum.mayMeet(scene.spheres[k].center, scene.spheres[k].radius)) {
-        seen.push_back(scene.spheres[k]);
-        b.index.push_back(std::int32_t(k));
-      }
-    b.list = SphereList::from(seen);
+    const int rx = bx / kRegion, ry = by / kRegion;
+    BlockSpheres& region = q.regions[std::size_t(ry) * std::size_t(regionsAcross) + std::size_t(rx)];
+    if (!region.ready) {
+      const auto [lo, hi] = film(rx * kRegion, ry * kRegion, (rx + 1) * kRegion, (ry + 1) * kRegion);
+      cull(scene, camera, lo, hi, nullptr, region.index);
+      region.ready = true;
+    }
+    const auto [lo, hi] = film(bx, by, bx + 1, by + 1);
+    cull(scene, camera, lo, hi, &region.index, b.index);
+    b.packets = b.index.size() > kMostBlockSpheres;
+    if (!b.packets) {
+      std::vector<Sphere> seen;
+      for (const std::int32_t k : b.index)
+        seen.push_back(scene.spheres[std::size_t(k)]);
+      b.list = SphereList::from(seen);
+    }
     b.ready = true;
   }
   return b;
@@ -374,10 +414,21 @@ void extend(const Stages& st, Queues& q, bool cameraRays)
       while (end < n && int(q.film.x[end]) / kBlock == bx && int(q.film.y[end]) / kBlock == by)
         ++end;
       const BlockSpheres& b = blockSpheres(scene, q, bx, by);
-      nearestSpheres(b.list, paths.ray, i, end - i, q.t, q.primitive);
-      for (std::size_t k = i; k < end; ++k)
-        if (q.primitive[k] >= 0)
-          q.primitive[k] = b.index[std::size_t(q.primitive[k])];
+      if (b.packets) {
+        atLeast(q.rays, n), atLeast(q.hits, n);
+        for (std::size_t k = i; k < end; ++k)
+          q.rays[k] = paths.ray.get(k, paths.time[k]);
+        scene.accelerator.intersectPacket(std::span(q.rays).subspan(i, end - i), std::span(q.hits).subspan(i));
+        for (std::size_t k = i; k < end; ++k) {
+          q.t[k] = q.hits[k] ? q.hits[k]->t : 0;
+          q.primitive[k] = q.hits[k] ? q.hits[k]->primitive : -1;
+        }
+      } else {
+        nearestSpheres(b.list, paths.ray, i, end - i, q.t, q.primitive);
+        for (std::size_t k = i; k < end; ++k)
+          if (q.primitive[k] >= 0)
+            q.primitive[k] = b.index[std::size_t(q.primitive[k])];
+      }
       i = end;
     }
   } else if (scene.usesAccelerator() && cameraRays) {
@@ -851,7 +902,8 @@ int main(int argc, char** argv)
     const MisHeuristic heuristic = heuristicOption(options);
     // The stream kernels take a flat list of still spheres; a tree is walked one ray at a time.
     const bool sphereKernels = !scene.usesAccelerator() && scene.triangles.empty() && !scene.hasMotion();
-    const bool cameraBlocks = scene.usesAccelerator() && scene.triangles.empty() && !scene.hasMotion();
+    const bool cameraBlocks = scene.usesAccelerator() && scene.triangles.empty() && !scene.hasMotion() &&
+                              scene.spheres.size() <= kMostCulledSpheres;
     if (options.verbose()) {
       const SimdTarget simd = currentSimdTarget();
       std::cerr << chapter.binary << ": plan: wavefronts of up to " << options.integer("--wavefront")
@@ -859,7 +911,8 @@ int main(int argc, char** argv)
                 << (sphereKernels ? "through the stream kernels"
                     : cameraBlocks
                         ? "through the tree one ray at a time, but camera rays through a pinhole by blocks of 8 x 8 "
-                          "pixels, each against the spheres it may see (through a lens: in packets of 16)"
+                          "pixels, each against the spheres it may see (through a lens, or a block that may see more "
+                          "than 32: in packets of 16)"
                     : scene.usesAccelerator()
                         ? "through the tree (camera rays in packets of 16, the others one ray at a time)"
                         : "through the scene, one ray at a time (triangles or motion)")

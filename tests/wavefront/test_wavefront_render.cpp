@@ -4,6 +4,7 @@
 // image does not depend on the wavefront's size; what it does not support it says.
 #include "../analytic/run_chapter.h"
 #include "../lights/compare_renders.h"
+#include "core/rng.h"
 
 #include <catch2/catch.hpp>
 
@@ -71,6 +72,41 @@ TEST_CASE("wavefront: the image is the same for any wavefront size, heuristic an
   const std::string adaptive = "--width 32 --height 24 --spp 64 --adaptive 0.2 --seed 2";
   CHECK(renderBytes(RAYLIFE_STEP16, kScenes + "/adaptive.json", adaptive, "a16") ==
         renderBytes(RAYLIFE_STEP08, kScenes + "/adaptive.json", adaptive, "a8"));
+}
+
+TEST_CASE("wavefront: camera rays by blocks of pixels give chapter 8's image, a crowded block through the packets")
+{
+  // A tree of spheres through a pinhole: camera rays go block by block, each against the spheres it may see. Here
+  // 150 small spheres lie along the view axis, so the central blocks may see more than 32 and take the tree's
+  // packets; the others see a few of 40 spheres scattered about, or only the ground; one sphere holds the eye.
+  std::string spheres = R"({"center": [0, -1000, 0], "radius": 1000, "material": "grey"},
+                           {"center": [0, 1, 10], "radius": 40, "material": "glass"})";
+  Pcg32 rng(3, 5);
+  auto u = [&] { return double(rng.nextUint()) * 0x1p-32; };
+  for (int k = 0; k < 190; ++k) {
+    const bool axis = k < 150;
+    const double x = axis ? 0.1 * (u() - 0.5) : 8 * (u() - 0.5), y = axis ? 1 + 0.1 * (u() - 0.5) : 0.2 + 3 * u();
+    const double z = axis ? 8 - 28 * u() : 4 - 12 * u(), r = axis ? 0.02 : 0.1 + 0.4 * u();
+    spheres += ", {\"center\": [" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) +
+               "], \"radius\": " + std::to_string(r) + ", \"material\": \"" + (k % 3 ? "grey" : "shiny") + "\"}";
+  }
+  const std::string path = "/tmp/raylife_wavefront_blocks_" + std::to_string(::getpid()) + ".json";
+  {
+    std::ofstream out(path);
+    out << R"({"camera": {"eye": [0, 1, 10], "focal": [0, 1, 0], "up": [0, 1, 0], "vfov": 30, "width": 48,
+                          "height": 36},
+               "background": [0.5, 0.7, 1.0],
+               "materials": {"grey": {"type": "diffuse", "color": [0.6, 0.6, 0.6]},
+                             "shiny": {"type": "glossy", "color": [0.8, 0.7, 0.5], "roughness": 0.2},
+                             "glass": {"type": "glass", "color": [1, 1, 1], "ior": 1.0}},
+               "lights": [{"type": "point", "position": [-5, 20, 10], "intensity": [400, 400, 400]}],
+               "spheres": [)" << spheres << "]}";
+  }
+  const std::string args = "--width 48 --height 36 --spp 5 --seed 7";
+  CHECK(renderBytes(RAYLIFE_STEP16, path, args, "blocks16") == renderBytes(RAYLIFE_STEP08, path, args, "blocks8"));
+  CHECK(renderBytes(RAYLIFE_STEP16, path, args + " --threads 2 --wavefront 9", "blocks16b") ==
+        renderBytes(RAYLIFE_STEP08, path, args, "blocks8b"));
+  std::remove(path.c_str());
 }
 
 TEST_CASE("unbiased: chapter 16 and chapter 8 at other seeds render the same image by the z-test")
