@@ -402,6 +402,18 @@ void extend(const Stages& st, Queues& q, bool cameraRays)
   const std::size_t n = paths.size();
   atLeast(q.hit, n), atLeast(q.t, n), atLeast(q.primitive, n);
   q.found.assign(n, 0);
+  // Camera rays [first, end) through the tree in packets of sixteen: neighbouring pixels' rays enter nearly the same
+  // boxes.
+  auto inPackets = [&](std::size_t first, std::size_t end) {
+    atLeast(q.rays, n), atLeast(q.hits, n);
+    for (std::size_t i = first; i < end; ++i)
+      q.rays[i] = paths.ray.get(i, paths.time[i]);
+    scene.accelerator.intersectPacket(std::span(q.rays).subspan(first, end - first), std::span(q.hits).subspan(first));
+    for (std::size_t i = first; i < end; ++i) {
+      q.t[i] = q.hits[i] ? q.hits[i]->t : 0;
+      q.primitive[i] = q.hits[i] ? q.hits[i]->primitive : -1;
+    }
+  };
   if (st.sphereKernels) {
     nearestSpheres(st.spheres, paths.ray, n, q.t, q.primitive);
   } else if (st.cameraBlocks && cameraRays && q.film.camera) {
@@ -415,14 +427,7 @@ void extend(const Stages& st, Queues& q, bool cameraRays)
         ++end;
       const BlockSpheres& b = blockSpheres(scene, q, bx, by);
       if (b.packets) {
-        atLeast(q.rays, n), atLeast(q.hits, n);
-        for (std::size_t k = i; k < end; ++k)
-          q.rays[k] = paths.ray.get(k, paths.time[k]);
-        scene.accelerator.intersectPacket(std::span(q.rays).subspan(i, end - i), std::span(q.hits).subspan(i));
-        for (std::size_t k = i; k < end; ++k) {
-          q.t[k] = q.hits[k] ? q.hits[k]->t : 0;
-          q.primitive[k] = q.hits[k] ? q.hits[k]->primitive : -1;
-        }
+        inPackets(i, end);
       } else {
         nearestSpheres(b.list, paths.ray, i, end - i, q.t, q.primitive);
         for (std::size_t k = i; k < end; ++k)
@@ -432,15 +437,7 @@ void extend(const Stages& st, Queues& q, bool cameraRays)
       i = end;
     }
   } else if (scene.usesAccelerator() && cameraRays) {
-    // Camera rays of neighbouring pixels enter nearly the same boxes: they walk the tree in packets.
-    atLeast(q.rays, n), atLeast(q.hits, n);
-    for (std::size_t i = 0; i < n; ++i)
-      q.rays[i] = paths.ray.get(i, paths.time[i]);
-    scene.accelerator.intersectPacket(std::span(q.rays).first(n), q.hits);
-    for (std::size_t i = 0; i < n; ++i) {
-      q.t[i] = q.hits[i] ? q.hits[i]->t : 0;
-      q.primitive[i] = q.hits[i] ? q.hits[i]->primitive : -1;
-    }
+    inPackets(0, n);
   } else if (scene.usesAccelerator()) {
     for (std::size_t i = 0; i < n; ++i) {
       const std::optional<BvhHit> h = scene.accelerator.intersect(paths.ray.get(i, paths.time[i]));
