@@ -55,6 +55,12 @@ template <class T> constexpr T gamma(int n)
 /// surface is not shadowed by that surface. Relative, so it does not depend on scene scale.
 inline constexpr Real kShadowRayShorten = Real(1e-4);
 
+/// Relative margin by which culling widens a sphere (a camera block's pyramid, PinholeFrustum; a light buffer's
+/// cells, LightBuffer): 10⁻⁴ of the distances involved. The rounding it must cover, of a ray's direction, of the
+/// cell or side a ray is tested against and of intersectSphere's closest approach, is a few γ(1) of those distances:
+/// about 6·10⁻⁸ each in float, 10⁻¹⁶ in double. So a culled sphere is one no ray could have hit, in either.
+inline constexpr Real kCullMargin = Real(1e-4);
+
 /// The camera refuses an up vector whose sine with the view direction is below this: the basis would be
 /// dominated by rounding (u = up × w loses all its significant bits as |up × w| approaches the unit roundoff).
 inline constexpr Real kMinUpSine = Real(1e-6);

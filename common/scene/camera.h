@@ -38,13 +38,13 @@ struct PinholeFrustum {
   Vec3 inward[4]; ///< Unit normals of the sides (left, right, top, bottom), pointing into the pyramid.
 
   /// Whether a ray of the pyramid may meet the sphere (center, radius > 0): false only when the sphere lies wholly
-  /// outside a side, or behind the eye, by a margin of 10⁻⁴ of its distance from the eye plus its radius, far
-  /// beyond the rounding of Camera::ray and of intersectSphere, in float as in double. So a false is certain; a
-  /// true may be a sphere none of the rays meets.
+  /// outside a side, or behind the eye, by a margin of kCullMargin (10⁻⁴) of its distance from the eye plus its
+  /// radius, far beyond the rounding of Camera::ray and of intersectSphere, in float as in double. So a false is
+  /// certain; a true may be a sphere none of the rays meets.
   bool mayMeet(const Vec3& center, Real radius) const
   {
     const Vec3 q = center - eye;
-    const Real reach = radius + Real(1e-4) * (glm::length(q) + radius);
+    const Real reach = radius + kCullMargin * (glm::length(q) + radius);
     if (glm::dot(q, forward) < -reach)
       return false;
     for (const Vec3& n : inward)

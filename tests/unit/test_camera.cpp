@@ -121,7 +121,7 @@ TEST_CASE("a block's pyramid culls only spheres none of its rays meets, and cull
       const Vec2 film(lo.x + (hi.x - lo.x) * s.next1D(), lo.y + (hi.y - lo.y) * s.next1D());
       const Ray aim = camera.ray(film);
       const Real radius = std::pow(Real(10), -3 + 6 * s.next1D());
-      const Real distance = k % 10 == 0 ? -radius * (1 + s.next1D()) : radius * (1 + 1e3 * s.next1D());
+      const Real distance = k % 10 == 0 ? -radius * (1 + s.next1D()) : radius * (1 + Real(1e3) * s.next1D());
       Vec3 center = aim.origin + distance * aim.direction + radius * (2 * s.next1D()) * randomVector(s, 1);
       if (k % 2 == 1) // or anywhere around the camera (most of these the block's thin pyramid misses)
         center = eye + randomVector(s, 100);
