@@ -17,6 +17,7 @@
 // and any wavefront size.
 #include "core/frame.h"
 #include "core/sampling.h"
+#include "geometry/light_buffer.h"
 #include "render/guided_lights.h"
 #include "render/ray_stream.h"
 #include "render/runner.h"
@@ -82,6 +83,7 @@ struct ShadowRays {
   std::vector<Color> light;
   std::vector<std::uint32_t> slot;
   std::vector<Real> time;
+  std::vector<std::int32_t> target; // the point light the ray goes to (its number in the scene), else −1
   std::size_t count = 0;
   std::size_t size() const { return count; }
   // Empties the queue, with room for `n` rays.
@@ -89,12 +91,12 @@ struct ShadowRays {
   {
     count = 0;
     if (ray.size() < n)
-      ray.resize(n), light.resize(n), slot.resize(n), time.resize(n);
+      ray.resize(n), light.resize(n), slot.resize(n), time.resize(n), target.resize(n);
   }
-  void push(const Ray& r, const Color& L, std::uint32_t s)
+  void push(const Ray& r, const Color& L, std::uint32_t s, std::int32_t pointLight = -1)
   {
     ray.set(count, r);
-    light[count] = L, slot[count] = s, time[count] = r.time;
+    light[count] = L, slot[count] = s, time[count] = r.time, target[count] = pointLight;
     ++count;
   }
 };
@@ -169,13 +171,14 @@ struct SphereLightColumns {
 /// surfaceLightSamples, and their output.
 struct PointLightColumns {
   std::vector<std::uint32_t> path; // which path each entry is
+  std::vector<std::int32_t> light; // and which light it samples (its number in the scene)
   std::vector<Real> px, py, pz, ex, ey, ez, gx, gy, gz, lx, ly, lz, iR, iG, iB; // the points and their lights
   std::vector<Real> wx, wy, wz, liR, liG, liB, ox, oy, oz, t, arrives;        // the arrivals and shadow rays
   std::vector<Real> nx, ny, nz, dx, dy, dz, choice, betaR, betaG, betaB, rhoR, rhoG, rhoB, exponent, lightR, lightG,
       lightB, useful; // the light they bring
   void resize(std::size_t n)
   {
-    atLeast(path, n), atLeast(exponent, n);
+    atLeast(path, n), atLeast(light, n), atLeast(exponent, n);
     for (std::vector<Real>* v : {&px, &py, &pz, &ex, &ey, &ez, &gx, &gy, &gz, &lx, &ly, &lz, &iR, &iG, &iB, &wx, &wy,
                                  &wz, &liR, &liG, &liB, &ox, &oy, &oz, &t, &arrives, &nx, &ny, &nz, &dx, &dy, &dz,
                                  &choice, &betaR, &betaG, &betaB, &rhoR, &rhoG, &rhoB, &lightR, &lightG, &lightB,
@@ -213,6 +216,9 @@ constexpr int kBlock = 8;
 constexpr int kRegion = 8;
 constexpr std::size_t kMostCulledSpheres = 4096;
 constexpr std::size_t kMostBlockSpheres = 32;
+/// Shadow rays towards a point light go through its light buffer (connect), with this many cells on a cube face's
+/// side, when they start within four times the light's distance from the eye.
+constexpr int kLightBufferCells = 128;
 
 /// The spheres a block (or a region) of pixels may see (PinholeFrustum::mayMeet): their numbers in the scene, in its
 /// order, and for a block the kernel's list of them (unless `packets`: too many).
@@ -286,6 +292,7 @@ struct Stages {
   bool cameraBlocks; // a tree over still spheres alone: pinhole camera rays go block by block (extend)
   SphereList spheres;
   bool triangleLights; // some triangle emits: its light samples' columns are needed
+  std::vector<LightBuffer> lightBuffers; // with cameraBlocks, each point light's (else none): connect's shadow rays
 };
 
 /// [generate]
@@ -606,7 +613,8 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
       return;
     if (inLanes && chosen->light < 0) {
       const PointLight& light = scene.lights[std::size_t(-chosen->light - 1)];
-      pl.path[np] = i, pl.px[np] = hit.point.x, pl.py[np] = hit.point.y, pl.pz[np] = hit.point.z;
+      pl.path[np] = i, pl.light[np] = -chosen->light - 1;
+      pl.px[np] = hit.point.x, pl.py[np] = hit.point.y, pl.pz[np] = hit.point.z;
       pl.ex[np] = hit.pointError.x, pl.ey[np] = hit.pointError.y, pl.ez[np] = hit.pointError.z;
       pl.gx[np] = hit.geometricNormal.x, pl.gy[np] = hit.geometricNormal.y, pl.gz[np] = hit.geometricNormal.z;
       pl.lx[np] = light.position.x, pl.ly[np] = light.position.y, pl.lz[np] = light.position.z;
@@ -763,7 +771,7 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
     if (pl.arrives[k] != 0 && pl.useful[k] != 0)
       q.shadows.push(Ray{Vec3(pl.ox[k], pl.oy[k], pl.oz[k]), Vec3(pl.wx[k], pl.wy[k], pl.wz[k]), 0, pl.t[k],
                          q.hit[pl.path[k]].time},
-                     Color(pl.lightR[k], pl.lightG[k], pl.lightB[k]), paths.slot[pl.path[k]]);
+                     Color(pl.lightR[k], pl.lightG[k], pl.lightB[k]), paths.slot[pl.path[k]], pl.light[k]);
 
   // The light samples towards triangles, all at once: the directions (sampleTriangleLight), the pdf
   // (the choice's, the direction's, then the guide's, as sampleChosen multiplies them), the light each would bring,
@@ -828,7 +836,8 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
 
 /// [connect]
 // Stage 4, connect: every shadow ray of the round at once (any hit); the light of each that gets through is added
-// to its pixel sample.
+// to its pixel sample. In a tree of still spheres, a ray to a point light asks the light's buffer instead: it tests
+// only the spheres that lie in its direction from the light (Haines and Greenberg's light buffer).
 void connect(const Stages& st, Queues& q, std::span<Color> out)
 {
   const ShadowRays& shadows = q.shadows;
@@ -838,8 +847,20 @@ void connect(const Stages& st, Queues& q, std::span<Color> out)
     anySpheres(st.spheres, shadows.ray, n, q.blocked);
     countRays(n);
   } else {
-    for (std::size_t i = 0; i < n; ++i)
-      q.blocked[i] = st.scene.occluded(shadows.ray.get(i, shadows.time[i]));
+    std::size_t buffered = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const Ray ray = shadows.ray.get(i, shadows.time[i]);
+      const std::int32_t light = shadows.target[i];
+      const LightBuffer* buffer =
+          light >= 0 && std::size_t(light) < st.lightBuffers.size() ? &st.lightBuffers[std::size_t(light)] : nullptr;
+      if (buffer && buffer->answers(ray.origin)) {
+        q.blocked[i] = buffer->occluded(ray);
+        ++buffered;
+      } else {
+        q.blocked[i] = st.scene.occluded(ray);
+      }
+    }
+    countRays(buffered);
   }
   for (std::size_t i = 0; i < n; ++i)
     if (!q.blocked[i])
@@ -901,6 +922,14 @@ int main(int argc, char** argv)
     const bool sphereKernels = !scene.usesAccelerator() && scene.triangles.empty() && !scene.hasMotion();
     const bool cameraBlocks = scene.usesAccelerator() && scene.triangles.empty() && !scene.hasMotion() &&
                               scene.spheres.size() <= kMostCulledSpheres;
+    std::vector<LightBuffer> lightBuffers;
+    std::size_t bufferBytes = 0;
+    if (cameraBlocks)
+      for (const PointLight& light : scene.lights) {
+        lightBuffers.emplace_back(light.position, scene.spheres, kLightBufferCells,
+                                  4 * glm::length(light.position - scene.camera.eye));
+        bufferBytes += lightBuffers.back().memoryBytes();
+      }
     if (options.verbose()) {
       const SimdTarget simd = currentSimdTarget();
       std::cerr << chapter.binary << ": plan: wavefronts of up to " << options.integer("--wavefront")
@@ -912,14 +941,19 @@ int main(int argc, char** argv)
                           "than 32: in packets of 16)"
                     : scene.usesAccelerator()
                         ? "through the tree (camera rays in packets of 16, the others one ray at a time)"
-                        : "through the scene, one ray at a time (triangles or motion)")
-                << "; the kernels run " << simd.lanes << " paths a vector (" << simd.name << ")\n";
+                        : "through the scene, one ray at a time (triangles or motion)");
+      if (!lightBuffers.empty())
+        std::cerr << "; shadow rays to a point light through its light buffer (" << kLightBufferCells << " x "
+                  << kLightBufferCells << " cells a face, " << (bufferBytes + 1023) / 1024 << " KB for "
+                  << lightBuffers.size() << " lights; from beyond 4 times the light's distance from the eye: the tree)";
+      std::cerr << "; the kernels run " << simd.lanes << " paths a vector (" << simd.name << ")\n";
     }
     LightSampler lights = makeLightSampler(chapter.binary, scene, options);
     GuideLanes guide(lights);
     const auto stages = std::make_shared<const Stages>(
         Stages{scene, std::move(lights), std::move(guide), planScene(scene, chapter.uses).lightSampling(), heuristic,
-               sphereKernels, cameraBlocks, SphereList::from(scene.spheres), triangleEmits(scene)});
+               sphereKernels, cameraBlocks, SphereList::from(scene.spheres), triangleEmits(scene),
+               std::move(lightBuffers)});
     // Each thread of the render gets its own queues.
     auto workers = [stages]() -> WavefrontFunction {
       return [stages, queues = std::make_shared<Queues>()](const Scene&, const PrimaryRays& primary,

@@ -40,6 +40,34 @@ std::string renderBytes(const std::string& binary, const std::string& scene, con
   return bytes;
 }
 
+// One entry of a scene file's "spheres" list.
+std::string sphereJson(double x, double y, double z, double r, const char* material)
+{
+  return "{\"center\": [" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) +
+         "], \"radius\": " + std::to_string(r) + ", \"material\": \"" + material + "\"}";
+}
+
+// Writes a 48 x 36 scene of `spheres` (a list's entries) under `camera` and `lights` (a scene file's values), with a
+// diffuse "grey", a glossy "shiny" and a "glass" of index `ior`, and checks that chapter 16 renders chapter 8's
+// image of it bit for bit, on one thread and on two with wavefronts of `wavefront` paths.
+void checkChapter8Image(const std::string& tag, const std::string& camera, const std::string& lights, double ior,
+                        const std::string& spheres, const std::string& args, int wavefront)
+{
+  const std::string path = "/tmp/raylife_wavefront_" + tag + "_" + std::to_string(::getpid()) + ".json";
+  {
+    std::ofstream out(path);
+    out << R"({"camera": )" << camera << R"(, "background": [0.5, 0.7, 1.0],
+               "materials": {"grey": {"type": "diffuse", "color": [0.6, 0.6, 0.6]},
+                             "shiny": {"type": "glossy", "color": [0.8, 0.7, 0.5], "roughness": 0.2},
+                             "glass": {"type": "glass", "color": [1, 1, 1], "ior": )"
+        << ior << R"(}}, "lights": )" << lights << R"(, "spheres": [)" << spheres << "]}";
+  }
+  CHECK(renderBytes(RAYLIFE_STEP16, path, args, tag + "16") == renderBytes(RAYLIFE_STEP08, path, args, tag + "8"));
+  CHECK(renderBytes(RAYLIFE_STEP16, path, args + " --threads 2 --wavefront " + std::to_string(wavefront),
+                    tag + "16b") == renderBytes(RAYLIFE_STEP08, path, args, tag + "8b"));
+  std::remove(path.c_str());
+}
+
 } // namespace
 
 TEST_CASE("wavefront: chapter 16 renders chapter 8's image bit for bit on the scenes chapter 8 renders")
@@ -87,26 +115,37 @@ TEST_CASE("wavefront: camera rays by blocks of pixels give chapter 8's image, a 
     const bool axis = k < 150;
     const double x = axis ? 0.1 * (u() - 0.5) : 8 * (u() - 0.5), y = axis ? 1 + 0.1 * (u() - 0.5) : 0.2 + 3 * u();
     const double z = axis ? 8 - 28 * u() : 4 - 12 * u(), r = axis ? 0.02 : 0.1 + 0.4 * u();
-    spheres += ", {\"center\": [" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) +
-               "], \"radius\": " + std::to_string(r) + ", \"material\": \"" + (k % 3 ? "grey" : "shiny") + "\"}";
+    spheres += ", " + sphereJson(x, y, z, r, k % 3 ? "grey" : "shiny");
   }
-  const std::string path = "/tmp/raylife_wavefront_blocks_" + std::to_string(::getpid()) + ".json";
-  {
-    std::ofstream out(path);
-    out << R"({"camera": {"eye": [0, 1, 10], "focal": [0, 1, 0], "up": [0, 1, 0], "vfov": 30, "width": 48,
-                          "height": 36},
-               "background": [0.5, 0.7, 1.0],
-               "materials": {"grey": {"type": "diffuse", "color": [0.6, 0.6, 0.6]},
-                             "shiny": {"type": "glossy", "color": [0.8, 0.7, 0.5], "roughness": 0.2},
-                             "glass": {"type": "glass", "color": [1, 1, 1], "ior": 1.0}},
-               "lights": [{"type": "point", "position": [-5, 20, 10], "intensity": [400, 400, 400]}],
-               "spheres": [)" << spheres << "]}";
+  checkChapter8Image("blocks", R"({"eye": [0, 1, 10], "focal": [0, 1, 0], "up": [0, 1, 0], "vfov": 30})",
+                     R"([{"type": "point", "position": [-5, 20, 10], "intensity": [400, 400, 400]}])", 1.0, spheres,
+                     "--width 48 --height 36 --spp 5 --seed 7", 9);
+}
+
+TEST_CASE("wavefront: shadow rays through the point lights' light buffers give chapter 8's image")
+{
+  // A tree of still spheres: each point light's shadow rays go through its light buffer when they start within four
+  // times its distance from the eye. One light hangs among a crowd of small spheres (many fill several cells, the
+  // ground a whole face), one is inside a glass ball (every ray from outside crosses it), one is far off, one is
+  // close to the eye (its rays from most points are beyond its range: the tree answers them) and one is at the eye
+  // itself (no range: no buffer).
+  std::string spheres = R"({"center": [0, -1000, 0], "radius": 1000, "material": "grey"},
+                           {"center": [3, 1.5, -2], "radius": 1, "material": "glass"})";
+  Pcg32 rng(9, 2);
+  auto u = [&] { return double(rng.nextUint()) * 0x1p-32; };
+  for (int k = 0; k < 120; ++k) {
+    const bool crowd = k < 60;
+    const double x = crowd ? -2 + 2 * (u() - 0.5) : 12 * (u() - 0.5), y = crowd ? 2 + 2 * (u() - 0.5) : 0.3 * u();
+    const double z = crowd ? 2 * (u() - 0.5) : 8 - 16 * u(), r = crowd ? 0.05 + 0.2 * u() : 0.1 + 0.3 * u();
+    spheres += ", " + sphereJson(x, y, z, r, k % 3 ? "grey" : "shiny");
   }
-  const std::string args = "--width 48 --height 36 --spp 5 --seed 7";
-  CHECK(renderBytes(RAYLIFE_STEP16, path, args, "blocks16") == renderBytes(RAYLIFE_STEP08, path, args, "blocks8"));
-  CHECK(renderBytes(RAYLIFE_STEP16, path, args + " --threads 2 --wavefront 9", "blocks16b") ==
-        renderBytes(RAYLIFE_STEP08, path, args, "blocks8b"));
-  std::remove(path.c_str());
+  checkChapter8Image("lights", R"({"eye": [0, 3, 12], "focal": [0, 1, 0], "up": [0, 1, 0], "vfov": 40})",
+                     R"([{"type": "point", "position": [-2, 2, 0], "intensity": [20, 20, 20]},
+                         {"type": "point", "position": [3, 1.5, -2], "intensity": [30, 20, 10]},
+                         {"type": "point", "position": [-300, 500, 300], "intensity": [2e5, 2e5, 2e5]},
+                         {"type": "point", "position": [0.1, 3, 12], "intensity": [5, 5, 5]},
+                         {"type": "point", "position": [0, 3, 12], "intensity": [5, 5, 5]}])",
+                     1.5, spheres, "--width 48 --height 36 --spp 6 --seed 5", 13);
 }
 
 TEST_CASE("unbiased: chapter 16 and chapter 8 at other seeds render the same image by the z-test")
