@@ -24,6 +24,9 @@ using Real = float;
 #else
 using Real = double;
 #endif
+/// A signed integer as wide as Real (64 bits with double, 32 with float): an index by which SIMD lanes of Real can
+/// gather (the stream kernels of render/ray_stream.h).
+using LaneIndex = std::conditional_t<sizeof(Real) == 8, std::int64_t, std::int32_t>;
 
 /// A 3-vector of scalar T (a point, a direction or a colour).
 template <class T> using TVec3 = glm::vec<3, T, glm::defaultp>;

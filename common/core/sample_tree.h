@@ -19,7 +19,7 @@
 namespace raylife {
 
 /// A node index in a SampleForest: a signed integer as wide as Real, so that SIMD lanes of Real can gather by it.
-using SampleForestIndex = std::conditional_t<sizeof(Real) == 8, std::int64_t, std::int32_t>;
+using SampleForestIndex = LaneIndex;
 
 /// The nodes of many SampleTrees in one table (SampleTree::appendTo), for walking many points at once through
 /// different trees, one per SIMD lane (chapter 16's guidedWarps, render/ray_stream.h). Node k's quadrant q (0 to 3,

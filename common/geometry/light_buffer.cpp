@@ -130,14 +130,14 @@ LightBuffer::LightBuffer(const Vec3& light, std::span<const Sphere> spheres, int
   std::partial_sum(count.begin(), count.end(), count.begin());
   first_ = count;
   entries_.resize(first_.back());
-  each([&](std::size_t cell, std::uint32_t k) { entries_[count[cell]++] = k; });
+  each([&](std::size_t cell, std::uint32_t k) { entries_[count[cell]++] = LaneIndex(k); });
   for (const std::uint32_t k : order)
     if (wide[k])
-      everywhere_.push_back(k);
+      everywhere_.push_back(LaneIndex(k));
 }
 // [build]
 
-std::span<const std::uint32_t> LightBuffer::cellOf(const Vec3& origin) const
+std::span<const LaneIndex> LightBuffer::cellOf(const Vec3& origin) const
 {
   const Vec3 v = origin - light_;
   const Vec3 a = glm::abs(v);
@@ -163,8 +163,9 @@ std::span<const std::uint32_t> LightBuffer::cellOf(const Vec3& origin) const
   // The line from the origin runs straight to the light: only spheres that come nearer the light than the origin
   // (with the margin for the line's rounding) can lie across it.
   const Real within = glm::length(ray.origin - light_) + margin_;
-  auto blocks = [&](std::span<const std::uint32_t> spheres) {
-    for (const std::uint32_t k : spheres) {
+  auto blocks = [&](std::span<const LaneIndex> spheres) {
+    for (const LaneIndex number : spheres) {
+      const std::size_t k = std::size_t(number);
       if (nearest_[k] > within)
         return false;
       if (intersectSphere(ray.origin, ray.direction, center_[k], radius_[k], ray.tmin, ray.tmax))
@@ -178,8 +179,8 @@ std::span<const std::uint32_t> LightBuffer::cellOf(const Vec3& origin) const
 
 std::size_t LightBuffer::memoryBytes() const
 {
-  return center_.size() * (sizeof(Vec3) + 2 * sizeof(Real)) +
-         (everywhere_.size() + first_.size() + entries_.size()) * sizeof(std::uint32_t);
+  return center_.size() * (sizeof(Vec3) + 2 * sizeof(Real)) + first_.size() * sizeof(std::uint32_t) +
+         (everywhere_.size() + entries_.size()) * sizeof(LaneIndex);
 }
 
 } // namespace raylife

@@ -44,12 +44,25 @@ public:
   /// How many spheres a shadow ray from `origin` may test: those of its cell and those tested everywhere (for
   /// tests and measurements).
   std::size_t candidates(const Vec3& origin) const { return cellOf(origin).size() + everywhere_.size(); }
-  /// Spheres tested by every ray: those that would fill more than a quarter of a face (the ground below the light,
-  /// one that holds it), and the largest of the others where the cells would hold more than kEntriesPerCell each.
-  std::size_t everywhere() const { return everywhere_.size(); }
-  /// Sphere numbers held in the cells together (a sphere in several cells counts in each; the `everywhere` ones
-  /// are not in any).
-  std::size_t entries() const { return entries_.size(); }
+
+  /// Where a cell's spheres lie in listed(): entries [first, first + size).
+  struct CellRange {
+    LaneIndex first = 0; ///< The cell's first entry.
+    LaneIndex size = 0;  ///< Its entries, ≥ 0.
+  };
+  /// The spheres of the cell the direction from the light to `origin` lies in, nearest the light first: a shadow
+  /// ray from `origin` that answers() accepts is blocked exactly when one of them or of everywhere() is hit.
+  CellRange cellRange(const Vec3& origin) const
+  {
+    const std::span<const LaneIndex> c = cellOf(origin);
+    return c.empty() ? CellRange{} : CellRange{LaneIndex(c.data() - entries_.data()), LaneIndex(c.size())};
+  }
+  /// Every cell's sphere numbers (indices into the spheres the buffer was built over), back to back.
+  std::span<const LaneIndex> listed() const { return entries_; }
+  /// The numbers of the spheres every ray tests, nearest the light first: those that would fill more than a quarter
+  /// of a face (the ground below the light, one that holds it), and the largest of the others where the cells would
+  /// hold more than kEntriesPerCell each.
+  std::span<const LaneIndex> everywhere() const { return everywhere_; }
   /// The buffer's memory, in bytes.
   std::size_t memoryBytes() const;
 
@@ -70,13 +83,13 @@ private:
   std::vector<Vec3> center_; // the spheres, by number
   std::vector<Real> radius_;
   std::vector<Real> nearest_; // how near to the light each sphere, with its reach, comes
-  std::vector<std::uint32_t> everywhere_; // the spheres every ray tests, nearest first
+  std::vector<LaneIndex> everywhere_; // the spheres every ray tests, nearest first
   FaceCells face_[6];
   std::vector<std::uint32_t> first_; // the faces' cells' lists: entries_[first_[c], first_[c + 1])
-  std::vector<std::uint32_t> entries_;
+  std::vector<LaneIndex> entries_;
 
   // The spheres of the cell the direction from the light to `origin` lies in (none outside its face's part).
-  std::span<const std::uint32_t> cellOf(const Vec3& origin) const;
+  std::span<const LaneIndex> cellOf(const Vec3& origin) const;
 };
 
 } // namespace raylife

@@ -161,6 +161,58 @@ void AnySpheres(const SphereList& spheres, const RayStream& rays, std::size_t co
   }
 }
 
+/// [anySpheresListed]
+void AnySpheresListed(const SphereLists& in, const RayStream& rays, std::size_t begin, std::size_t count,
+                      std::uint8_t* occluded)
+{
+  const D d;
+  const hn::RebindToSigned<D> di;
+  using VI = hn::Vec<decltype(di)>;
+  const std::size_t lanes = hn::Lanes(d);
+  const SphereList& s = in.spheres;
+  const std::size_t end = begin + count;
+  for (std::size_t i = begin; i < end; i += lanes) {
+    const std::size_t n = std::min(lanes, end - i);
+    auto load = [&](const std::vector<Real>& v) { return loadLanes(d, v.data(), i, n); };
+    const V ox = load(rays.ox), oy = load(rays.oy), oz = load(rays.oz);
+    const V dx = load(rays.dx), dy = load(rays.dy), dz = load(rays.dz);
+    const V tmax = load(rays.tmax);
+    HWY_ALIGN LaneIndex firstLanes[hn::MaxLanes(di)], sizeLanes[hn::MaxLanes(di)];
+    for (std::size_t j = 0; j < lanes; ++j) // (past the end, no list)
+      firstLanes[j] = j < n ? in.first[i + j] : 0, sizeLanes[j] = j < n ? in.size[i + j] : 0;
+    const VI first = hn::Load(di, firstLanes), size = hn::Load(di, sizeLanes);
+    M blocked = hn::FirstN(d, 0);
+    // Each lane's own list, one sphere of it a step, until every lane's list is done or its ray blocked.
+    for (LaneIndex k = 0;; ++k) {
+      const VI step = hn::Set(di, k);
+      const M active = hn::AndNot(blocked, hn::RebindMask(d, hn::Lt(step, size)));
+      if (hn::AllFalse(d, active))
+        break;
+      const VI sphere = hn::GatherIndex(di, in.listed.data(),
+                                        hn::IfThenElseZero(hn::RebindMask(di, active), hn::Add(first, step)));
+      const V t = firstRoot(d, ox, oy, oz, dx, dy, dz, tmax, hn::GatherIndex(d, s.cx.data(), sphere),
+                            hn::GatherIndex(d, s.cy.data(), sphere), hn::GatherIndex(d, s.cz.data(), sphere),
+                            hn::GatherIndex(d, s.radius.data(), sphere));
+      blocked = hn::Or(blocked, hn::And(active, hn::Lt(t, tmax)));
+    }
+    // Then the spheres every ray tests, one for all the lanes at a time (as AnySpheres).
+    const M past = hn::Not(hn::FirstN(d, n));
+    for (const LaneIndex number : in.everywhere) {
+      if (hn::AllTrue(d, hn::Or(blocked, past)))
+        break;
+      const std::size_t k = std::size_t(number);
+      const V t = firstRoot(d, ox, oy, oz, dx, dy, dz, tmax, hn::Set(d, s.cx[k]), hn::Set(d, s.cy[k]),
+                            hn::Set(d, s.cz[k]), hn::Set(d, s.radius[k]));
+      blocked = hn::Or(blocked, hn::Lt(t, tmax));
+    }
+    HWY_ALIGN Real flags[hn::MaxLanes(d)];
+    hn::Store(hn::IfThenElseZero(blocked, hn::Set(d, Real(1))), d, flags);
+    for (std::size_t j = 0; j < n; ++j)
+      occluded[i + j] = flags[j] != 0;
+  }
+}
+/// [anySpheresListed]
+
 // The tangents s and t of the frame around unit n, by Duff et al.'s construction without a branch: Frame::fromNormal
 // and coneAxisFrame, lane by lane, the same operations.
 struct Tangents {
@@ -1063,6 +1115,7 @@ namespace raylife {
 
 HWY_EXPORT(NearestSpheres);
 HWY_EXPORT(AnySpheres);
+HWY_EXPORT(AnySpheresListed);
 HWY_EXPORT(DiffuseBounces);
 HWY_EXPORT(SphereHitPoints);
 HWY_EXPORT(SphereLightDirections);
@@ -1123,6 +1176,12 @@ void anySpheres(const SphereList& spheres, const RayStream& rays, std::size_t co
                 std::span<std::uint8_t> occluded)
 {
   HWY_DYNAMIC_DISPATCH(AnySpheres)(spheres, rays, count, occluded.data());
+}
+
+void anySpheresListed(const SphereLists& lists, const RayStream& rays, std::size_t first, std::size_t count,
+                      std::span<std::uint8_t> occluded)
+{
+  HWY_DYNAMIC_DISPATCH(AnySpheresListed)(lists, rays, first, count, occluded.data());
 }
 
 void diffuseBounces(const DiffuseBounceInput& in, std::size_t count, const DiffuseBounceOutput& out)

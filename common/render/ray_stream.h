@@ -87,6 +87,24 @@ void nearestSpheres(const SphereList& spheres, const RayStream& rays, std::size_
 void anySpheres(const SphereList& spheres, const RayStream& rays, std::size_t count,
                 std::span<std::uint8_t> occluded);
 
+/// Each ray's own short list of spheres, and a list every ray tests (anySpheresListed): a light buffer's cells, say.
+struct SphereLists {
+  const SphereList& spheres;            ///< The spheres, by number.
+  std::span<const LaneIndex> listed;    ///< The rays' lists back to back: numbers in `spheres`.
+  std::span<const LaneIndex> first;     ///< Ray i's list starts at listed[first[i]] …
+  std::span<const LaneIndex> size;      ///< … and holds size[i] ≥ 0 numbers.
+  std::span<const LaneIndex> everywhere; ///< Numbers in `spheres` that every ray tests.
+};
+
+/// For rays [first, first + count): whether a sphere of the ray's own list or of the list every ray tests is hit in
+/// [0, tmax), exactly when the loop over those spheres with intersectSphere finds one. Each lane follows its own
+/// ray's list, gathering each sphere's centre and radius, so a group of rays waits on the longest of its lists.
+/// @param lists the spheres and the lists (lists.first and lists.size at least first + count long).
+/// @param rays the rays. @param first the first ray to trace. @param count how many rays to trace.
+/// @param occluded out: entry i 1 where ray i is blocked, else 0 (at least first + count long).
+void anySpheresListed(const SphereLists& lists, const RayStream& rays, std::size_t first, std::size_t count,
+                      std::span<std::uint8_t> occluded);
+
 /// Diffuse hits stored by coordinate: the shading normal and the incoming ray's direction at each, and the two
 /// uniform numbers of each hit's bounce.
 struct DiffuseBounceInput {

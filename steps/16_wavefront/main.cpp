@@ -29,6 +29,7 @@
 #include <cstdint>
 #include <iostream>
 #include <memory>
+#include <numeric>
 #include <optional>
 #include <span>
 #include <vector>
@@ -259,6 +260,14 @@ struct Queues {
   // shade → connect: shadow rays, and the light each brings if it gets through.
   ShadowRays shadows;
   std::vector<std::uint8_t> blocked;
+  // connect: the rays light buffers answer, light by light: the light of each (−1: the tree's), where each light's
+  // rays start, and the rays themselves with their cells and their places in `shadows`.
+  std::vector<std::int32_t> buffered;
+  std::vector<std::size_t> lightStart, next;
+  RayStream lightRays;
+  std::vector<LaneIndex> cellFirst, cellSize;
+  std::vector<std::uint32_t> from;
+  std::vector<std::uint8_t> lightBlocked;
 };
 
 /// The light guide's trees (LightSampler::guideTrees) in one table, for warping many light samples' numbers at once
@@ -847,20 +856,43 @@ void connect(const Stages& st, Queues& q, std::span<Color> out)
     anySpheres(st.spheres, shadows.ray, n, q.blocked);
     countRays(n);
   } else {
-    std::size_t buffered = 0;
+    // The rays a light's buffer answers are counted light by light; the tree takes the others one at a time.
+    const std::size_t lights = st.lightBuffers.size();
+    q.buffered.resize(n);
+    q.lightStart.assign(lights + 1, 0);
     for (std::size_t i = 0; i < n; ++i) {
-      const Ray ray = shadows.ray.get(i, shadows.time[i]);
       const std::int32_t light = shadows.target[i];
-      const LightBuffer* buffer =
-          light >= 0 && std::size_t(light) < st.lightBuffers.size() ? &st.lightBuffers[std::size_t(light)] : nullptr;
-      if (buffer && buffer->answers(ray.origin)) {
-        q.blocked[i] = buffer->occluded(ray);
-        ++buffered;
-      } else {
-        q.blocked[i] = st.scene.occluded(ray);
-      }
+      const Vec3 origin(shadows.ray.ox[i], shadows.ray.oy[i], shadows.ray.oz[i]);
+      const bool answered = light >= 0 && std::size_t(light) < lights &&
+                            st.lightBuffers[std::size_t(light)].answers(origin);
+      q.buffered[i] = answered ? light : -1;
+      if (answered)
+        ++q.lightStart[std::size_t(light) + 1];
+      else
+        q.blocked[i] = st.scene.occluded(shadows.ray.get(i, shadows.time[i]));
     }
-    countRays(buffered);
+    // Each light's rays side by side, each with its cell's range of spheres; then each light's in the lanes.
+    std::partial_sum(q.lightStart.begin(), q.lightStart.end(), q.lightStart.begin());
+    const std::size_t m = q.lightStart[lights];
+    q.lightRays.resize(std::max(m, q.lightRays.size()));
+    atLeast(q.cellFirst, m), atLeast(q.cellSize, m), atLeast(q.from, m), atLeast(q.lightBlocked, m);
+    q.next.assign(q.lightStart.begin(), q.lightStart.end() - 1);
+    for (std::size_t i = 0; i < n; ++i)
+      if (q.buffered[i] >= 0) {
+        const std::size_t light = std::size_t(q.buffered[i]), k = q.next[light]++;
+        const Ray ray = shadows.ray.get(i);
+        q.lightRays.set(k, ray);
+        const LightBuffer::CellRange cell = st.lightBuffers[light].cellRange(ray.origin);
+        q.cellFirst[k] = cell.first, q.cellSize[k] = cell.size, q.from[k] = std::uint32_t(i);
+      }
+    for (std::size_t light = 0; light < lights; ++light) {
+      const LightBuffer& buffer = st.lightBuffers[light];
+      anySpheresListed({st.spheres, buffer.listed(), q.cellFirst, q.cellSize, buffer.everywhere()}, q.lightRays,
+                       q.lightStart[light], q.lightStart[light + 1] - q.lightStart[light], q.lightBlocked);
+    }
+    for (std::size_t k = 0; k < m; ++k)
+      q.blocked[q.from[k]] = q.lightBlocked[k];
+    countRays(m);
   }
   for (std::size_t i = 0; i < n; ++i)
     if (!q.blocked[i])

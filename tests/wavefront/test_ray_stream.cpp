@@ -11,6 +11,7 @@
 #include "core/frame.h"
 #include "core/rng.h"
 #include "geometry/hit.h"
+#include "geometry/light_buffer.h"
 #include "render/ray_stream.h"
 #include "render/render_loop.h"
 #include "shading/material.h"
@@ -158,6 +159,92 @@ TEST_CASE("stream kernels: nearestSpheres and anySpheres equal the loop over int
         CHECK(wrongPart == 0);
       }
     }
+  });
+}
+
+TEST_CASE("stream kernels: anySpheresListed equals the loop over each ray's list and the common one, bit for bit")
+{
+  // Lists of every length from none to 24 (so a group's lanes finish at different steps), numbers repeated, a
+  // common list or none; and a light buffer's cells, whose answer is LightBuffer::occluded's.
+  forEachTarget([](const SimdTarget&) {
+    for (const std::size_t count : {std::size_t(1), std::size_t(7), std::size_t(33), std::size_t(5000)}) {
+      const Case c = randomCase(count + 100, count);
+      const SphereList list = SphereList::from(c.spheres);
+      Pcg32 rng(count, 3);
+      auto pick = [&](std::size_t n) { return std::size_t(rng.nextUint()) % n; };
+      std::vector<LaneIndex> listed(300), first(count), size(count), everywhere;
+      for (LaneIndex& k : listed)
+        k = LaneIndex(pick(c.spheres.size()));
+      for (std::size_t i = 0; i < count; ++i)
+        size[i] = LaneIndex(i % 5 == 0 ? 0 : pick(25)), first[i] = LaneIndex(pick(listed.size() - 24));
+      if (count % 2 == 1)
+        everywhere = {3, LaneIndex(c.spheres.size() - 1), 0};
+      std::vector<std::uint8_t> occluded(count, 7);
+      anySpheresListed({list, listed, first, size, everywhere}, c.rays, 0, count, occluded);
+      std::size_t wrong = 0, blocked = 0;
+      for (std::size_t i = 0; i < count; ++i) {
+        const Ray ray = c.rays.get(i);
+        bool expected = false;
+        auto test = [&](LaneIndex k) {
+          const Sphere& sphere = c.spheres[std::size_t(k)];
+          expected = expected || intersectSphere(ray.origin, ray.direction, sphere.center, sphere.radius, Real(0),
+                                                 ray.tmax).has_value();
+        };
+        for (LaneIndex j = 0; j < size[i]; ++j)
+          test(listed[std::size_t(first[i] + j)]);
+        for (const LaneIndex k : everywhere)
+          test(k);
+        blocked += expected;
+        wrong += occluded[i] != std::uint8_t(expected);
+      }
+      INFO(count << " rays, " << blocked << " blocked");
+      CHECK(wrong == 0);
+      if (count > 100)
+        CHECK((blocked > count / 10 && blocked < count * 9 / 10));
+      // A range of the rays alone: its entries the same, the others untouched.
+      if (count > 3) {
+        const std::size_t from = count / 3, part = count / 2;
+        std::vector<std::uint8_t> partly(count, 7);
+        anySpheresListed({list, listed, first, size, everywhere}, c.rays, from, part, partly);
+        std::size_t wrongPart = 0;
+        for (std::size_t i = 0; i < count; ++i)
+          wrongPart += i >= from && i < from + part ? partly[i] != occluded[i] : partly[i] != 7;
+        CHECK(wrongPart == 0);
+      }
+    }
+    // A light buffer's cells: shadow rays to a light among 400 spheres, from anywhere around it.
+    Pcg32 rng(5, 9);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    std::vector<Sphere> spheres{Sphere{Vec3(0, -1000, 0), 1000, 0, Vec3(0)}};
+    for (int k = 0; k < 400; ++k)
+      spheres.push_back(Sphere{Vec3(20 * u() - 10, 4 * u(), 20 * u() - 10), Real(0.05) + Real(0.5) * u(), 0, Vec3(0)});
+    const Vec3 light(1, 6, -2);
+    const LightBuffer buffer(light, spheres, 32, 40);
+    const std::size_t count = 3000;
+    RayStream rays;
+    rays.resize(count);
+    std::vector<LaneIndex> first(count), size(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      const Sphere& on = spheres[1 + i % 400]; // (every other ray starts on a sphere)
+      const Vec3 o = i % 2 ? Vec3(30 * u() - 15, 5 * u(), 30 * u() - 15) : on.center + on.radius * randomDirection(rng);
+      const Real distance = glm::length(light - o);
+      rays.set(i, Ray{o, (light - o) / distance, 0, distance * (1 - kShadowRayShorten), 0});
+      const LightBuffer::CellRange cell = buffer.cellRange(o);
+      first[i] = cell.first, size[i] = cell.size;
+    }
+    std::vector<std::uint8_t> occluded(count);
+    anySpheresListed({SphereList::from(spheres), buffer.listed(), first, size, buffer.everywhere()}, rays, 0, count,
+                     occluded);
+    std::size_t wrong = 0, blocked = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      REQUIRE(buffer.answers(rays.get(i).origin));
+      const bool expected = buffer.occluded(rays.get(i));
+      blocked += expected;
+      wrong += occluded[i] != std::uint8_t(expected);
+    }
+    INFO(blocked << " of " << count << " shadow rays blocked");
+    CHECK(wrong == 0);
+    CHECK((blocked > count / 10 && blocked < count * 9 / 10));
   });
 }
 
