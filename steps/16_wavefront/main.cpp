@@ -977,7 +977,8 @@ int main(int argc, char** argv)
       if (!lightBuffers.empty())
         std::cerr << "; shadow rays to a point light through its light buffer (" << kLightBufferCells << " x "
                   << kLightBufferCells << " cells a face, " << (bufferBytes + 1023) / 1024 << " KB for "
-                  << lightBuffers.size() << " lights; from beyond 4 times the light's distance from the eye: the tree)";
+                  << lightBuffers.size() << (lightBuffers.size() == 1 ? " light" : " lights")
+                  << "; from beyond 4 times the light's distance from the eye: the tree)";
       std::cerr << "; the kernels run " << simd.lanes << " paths a vector (" << simd.name << ")\n";
     }
     LightSampler lights = makeLightSampler(chapter.binary, scene, options);
