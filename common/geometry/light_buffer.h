@@ -66,7 +66,7 @@ public:
   /// The buffer's memory, in bytes.
   std::size_t memoryBytes() const;
 
-  /// The most sphere numbers the cells hold, on average a cell: 8 (with 128 cells a side, 3 MB at most).
+  /// The most sphere numbers the cells hold, on average a cell: 8 (with 128 cells a side, 6 MB at most in double).
   static constexpr std::size_t kEntriesPerCell = 8;
 
 private:
