@@ -29,7 +29,6 @@
 #include <cstdint>
 #include <iostream>
 #include <memory>
-#include <numeric>
 #include <optional>
 #include <span>
 #include <vector>
@@ -84,7 +83,6 @@ struct ShadowRays {
   std::vector<Color> light;
   std::vector<std::uint32_t> slot;
   std::vector<Real> time;
-  std::vector<std::int32_t> target; // the point light the ray goes to (its number in the scene), else −1
   std::size_t count = 0;
   std::size_t size() const { return count; }
   // Empties the queue, with room for `n` rays.
@@ -92,12 +90,36 @@ struct ShadowRays {
   {
     count = 0;
     if (ray.size() < n)
-      ray.resize(n), light.resize(n), slot.resize(n), time.resize(n), target.resize(n);
+      ray.resize(n), light.resize(n), slot.resize(n), time.resize(n);
   }
-  void push(const Ray& r, const Color& L, std::uint32_t s, std::int32_t pointLight = -1)
+  void push(const Ray& r, const Color& L, std::uint32_t s)
   {
     ray.set(count, r);
-    light[count] = L, slot[count] = s, time[count] = r.time, target[count] = pointLight;
+    light[count] = L, slot[count] = s, time[count] = r.time;
+    ++count;
+  }
+};
+
+/// The shadow rays of one round to one point light that its light buffer answers (connect's queue for that light),
+/// each with the buffer's cell it starts in: like ShadowRays, entries [0, size()).
+struct BufferedShadowRays {
+  RayStream ray;
+  std::vector<Color> light;
+  std::vector<std::uint32_t> slot;
+  std::vector<LaneIndex> cellFirst, cellSize;
+  std::vector<std::uint8_t> blocked; // (connect's answers)
+  std::size_t count = 0;
+  std::size_t size() const { return count; }
+  void clear(std::size_t n)
+  {
+    count = 0;
+    if (ray.size() < n)
+      ray.resize(n), light.resize(n), slot.resize(n), cellFirst.resize(n), cellSize.resize(n), blocked.resize(n);
+  }
+  void push(const Ray& r, const Color& L, std::uint32_t s, LightBuffer::CellRange cell)
+  {
+    ray.set(count, r);
+    light[count] = L, slot[count] = s, cellFirst[count] = cell.first, cellSize[count] = cell.size;
     ++count;
   }
 };
@@ -257,17 +279,11 @@ struct Queues {
   // shade's diffuse and glossy hits' points and the light guide's cell of each (guideCells).
   std::vector<Real> px, py, pz;
   std::vector<SampleForestIndex> cell;
-  // shade → connect: shadow rays, and the light each brings if it gets through.
+  // shade → connect: shadow rays, and the light each brings if it gets through: those a point light's buffer
+  // answers in that light's queue (Stages::lightBuffers' order), the others for the tree (or the stream kernel).
   ShadowRays shadows;
   std::vector<std::uint8_t> blocked;
-  // connect: the rays light buffers answer, light by light: the light of each (−1: the tree's), where each light's
-  // rays start, and the rays themselves with their cells and their places in `shadows`.
-  std::vector<std::int32_t> buffered;
-  std::vector<std::size_t> lightStart, next;
-  RayStream lightRays;
-  std::vector<LaneIndex> cellFirst, cellSize;
-  std::vector<std::uint32_t> from;
-  std::vector<std::uint8_t> lightBlocked;
+  std::vector<BufferedShadowRays> buffered;
 };
 
 /// The light guide's trees (LightSampler::guideTrees) in one table, for warping many light samples' numbers at once
@@ -776,11 +792,18 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
                        pl.betaB, pl.rhoR, pl.rhoG, pl.rhoB, pl.liR, pl.liG, pl.liB, true, true,
                        lobes(pl.exponent, pl.path, np)},
                       np, {pl.lightR, pl.lightG, pl.lightB, pl.useful});
+  // (A ray that its light's buffer answers goes to that light's queue, with the cell it starts in.)
   for (std::size_t k = 0; k < np; ++k)
-    if (pl.arrives[k] != 0 && pl.useful[k] != 0)
-      q.shadows.push(Ray{Vec3(pl.ox[k], pl.oy[k], pl.oz[k]), Vec3(pl.wx[k], pl.wy[k], pl.wz[k]), 0, pl.t[k],
-                         q.hit[pl.path[k]].time},
-                     Color(pl.lightR[k], pl.lightG[k], pl.lightB[k]), paths.slot[pl.path[k]], pl.light[k]);
+    if (pl.arrives[k] != 0 && pl.useful[k] != 0) {
+      const Ray ray{Vec3(pl.ox[k], pl.oy[k], pl.oz[k]), Vec3(pl.wx[k], pl.wy[k], pl.wz[k]), 0, pl.t[k],
+                    q.hit[pl.path[k]].time};
+      const Color light(pl.lightR[k], pl.lightG[k], pl.lightB[k]);
+      const std::size_t target = std::size_t(pl.light[k]);
+      if (target < st.lightBuffers.size() && st.lightBuffers[target].answers(ray.origin))
+        q.buffered[target].push(ray, light, paths.slot[pl.path[k]], st.lightBuffers[target].cellRange(ray.origin));
+      else
+        q.shadows.push(ray, light, paths.slot[pl.path[k]]);
+    }
 
   // The light samples towards triangles, all at once: the directions (sampleTriangleLight), the pdf
   // (the choice's, the direction's, then the guide's, as sampleChosen multiplies them), the light each would bring,
@@ -856,47 +879,23 @@ void connect(const Stages& st, Queues& q, std::span<Color> out)
     anySpheres(st.spheres, shadows.ray, n, q.blocked);
     countRays(n);
   } else {
-    // The rays a light's buffer answers are counted light by light; the tree takes the others one at a time.
-    const std::size_t lights = st.lightBuffers.size();
-    q.buffered.resize(n);
-    q.lightStart.assign(lights + 1, 0);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::int32_t light = shadows.target[i];
-      const Vec3 origin(shadows.ray.ox[i], shadows.ray.oy[i], shadows.ray.oz[i]);
-      const bool answered = light >= 0 && std::size_t(light) < lights &&
-                            st.lightBuffers[std::size_t(light)].answers(origin);
-      q.buffered[i] = answered ? light : -1;
-      if (answered)
-        ++q.lightStart[std::size_t(light) + 1];
-      else
-        q.blocked[i] = st.scene.occluded(shadows.ray.get(i, shadows.time[i]));
-    }
-    // Each light's rays side by side, each with its cell's range of spheres; then each light's in the lanes.
-    std::partial_sum(q.lightStart.begin(), q.lightStart.end(), q.lightStart.begin());
-    const std::size_t m = q.lightStart[lights];
-    q.lightRays.resize(std::max(m, q.lightRays.size()));
-    atLeast(q.cellFirst, m), atLeast(q.cellSize, m), atLeast(q.from, m), atLeast(q.lightBlocked, m);
-    q.next.assign(q.lightStart.begin(), q.lightStart.end() - 1);
-    for (std::size_t i = 0; i < n; ++i)
-      if (q.buffered[i] >= 0) {
-        const std::size_t light = std::size_t(q.buffered[i]), k = q.next[light]++;
-        const Ray ray = shadows.ray.get(i);
-        q.lightRays.set(k, ray);
-        const LightBuffer::CellRange cell = st.lightBuffers[light].cellRange(ray.origin);
-        q.cellFirst[k] = cell.first, q.cellSize[k] = cell.size, q.from[k] = std::uint32_t(i);
-      }
-    for (std::size_t light = 0; light < lights; ++light) {
-      const LightBuffer& buffer = st.lightBuffers[light];
-      anySpheresListed({st.spheres, buffer.listed(), q.cellFirst, q.cellSize, buffer.everywhere()}, q.lightRays,
-                       q.lightStart[light], q.lightStart[light + 1] - q.lightStart[light], q.lightBlocked);
-    }
-    for (std::size_t k = 0; k < m; ++k)
-      q.blocked[q.from[k]] = q.lightBlocked[k];
-    countRays(m);
+    for (std::size_t i = 0; i < n; ++i) // (Scene::occluded counts its rays)
+      q.blocked[i] = st.scene.occluded(shadows.ray.get(i, shadows.time[i]));
   }
   for (std::size_t i = 0; i < n; ++i)
     if (!q.blocked[i])
       out[shadows.slot[i]] += shadows.light[i];
+  // Each light's buffered rays in the lanes, each ray against its cell's spheres and those every ray tests.
+  for (std::size_t light = 0; light < st.lightBuffers.size(); ++light) {
+    const LightBuffer& buffer = st.lightBuffers[light];
+    BufferedShadowRays& b = q.buffered[light];
+    anySpheresListed({st.spheres, buffer.listed(), b.cellFirst, b.cellSize, buffer.everywhere()}, b.ray, 0, b.size(),
+                     b.blocked);
+    countRays(b.size());
+    for (std::size_t k = 0; k < b.size(); ++k)
+      if (!b.blocked[k])
+        out[b.slot[k]] += b.light[k];
+  }
 }
 /// [connect]
 
@@ -912,6 +911,9 @@ void renderWavefront(const Stages& st, Queues& q, const PrimaryRays& primary, st
   for (int bounce = 0; q.paths.size() > 0; ++bounce) {
     extend(st, q, bounce == 0);
     q.shadows.clear(q.paths.size());
+    q.buffered.resize(st.lightBuffers.size());
+    for (BufferedShadowRays& b : q.buffered)
+      b.clear(q.paths.size());
     shade(st, bounce, maxDepth, q, out);
     connect(st, q, out);
   }
