@@ -26,9 +26,11 @@
 #include "shading/bsdf.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <iostream>
 #include <memory>
+#include <numeric>
 #include <optional>
 #include <span>
 #include <vector>
@@ -590,13 +592,14 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
     else
       q.other.push_back(i);
   }
-  // (Grouped by type: one pass over them per type, which keeps each type's paths in order.)
-  q.grouped.clear();
-  for (const MaterialType type : {MaterialType::Mirror, MaterialType::Glass, MaterialType::Glossy, MaterialType::Metal,
-                                  MaterialType::Interface})
-    for (const std::uint32_t i : q.other)
-      if (material(i).type == type)
-        q.grouped.push_back(i);
+  // (Grouped by type, in the order of MaterialType, each type's paths in order: counted, then placed.)
+  std::array<std::size_t, std::size_t(MaterialType::Interface) + 2> start{};
+  for (const std::uint32_t i : q.other)
+    ++start[std::size_t(material(i).type) + 1];
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  q.grouped.resize(q.other.size());
+  for (const std::uint32_t i : q.other)
+    q.grouped[start[std::size_t(material(i).type)]++] = i;
   std::swap(q.other, q.grouped);
 
   // Light sampling (as chapters 7 and 8): a light, a direction towards it, and its shadow ray into connect's
