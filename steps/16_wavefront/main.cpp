@@ -286,6 +286,14 @@ struct Queues {
   ShadowRays shadows;
   std::vector<std::uint8_t> blocked;
   std::vector<BufferedShadowRays> buffered;
+  // Empties the shadow rays' queues (one for each of `buffers` light buffers), with room for `n` rays each.
+  void clearShadows(std::size_t n, std::size_t buffers)
+  {
+    shadows.clear(n);
+    buffered.resize(buffers);
+    for (BufferedShadowRays& b : buffered)
+      b.clear(n);
+  }
 };
 
 /// The light guide's trees (LightSampler::guideTrees) in one table, for warping many light samples' numbers at once
@@ -871,8 +879,9 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
 
 /// [connect]
 // Stage 4, connect: every shadow ray of the round at once (any hit); the light of each that gets through is added
-// to its pixel sample. In a tree of still spheres, a ray to a point light asks the light's buffer instead: it tests
-// only the spheres that lie in its direction from the light (Haines and Greenberg's light buffer).
+// to its pixel sample. In a tree of still spheres, the rays to a point light that its buffer answers come in that
+// light's own queue, and test only the spheres that lie in their directions from the light (Haines and Greenberg's
+// light buffer).
 void connect(const Stages& st, Queues& q, std::span<Color> out)
 {
   const ShadowRays& shadows = q.shadows;
@@ -913,10 +922,7 @@ void renderWavefront(const Stages& st, Queues& q, const PrimaryRays& primary, st
   generate(primary, keys, q.paths, q.film);
   for (int bounce = 0; q.paths.size() > 0; ++bounce) {
     extend(st, q, bounce == 0);
-    q.shadows.clear(q.paths.size());
-    q.buffered.resize(st.lightBuffers.size());
-    for (BufferedShadowRays& b : q.buffered)
-      b.clear(q.paths.size());
+    q.clearShadows(q.paths.size(), st.lightBuffers.size());
     shade(st, bounce, maxDepth, q, out);
     connect(st, q, out);
   }
