@@ -46,7 +46,7 @@ struct RayStream {
 
   /// Rays in the stream.
   std::size_t size() const { return ox.size(); }
-  /// Makes room for `n` rays (their values unspecified).
+  /// Makes room for `n` rays: the first min(n, size()) keep their values, the others are unspecified.
   void resize(std::size_t n);
   /// Ray i, from `ray` (whose tmin must be 0).
   void set(std::size_t i, const Ray& ray);

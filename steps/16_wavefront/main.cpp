@@ -103,7 +103,8 @@ struct ShadowRays {
 };
 
 /// The shadow rays of one round to one point light that its light buffer answers (connect's queue for that light),
-/// each with the buffer's cell it starts in: like ShadowRays, entries [0, size()).
+/// each with the buffer's cell it starts in: like ShadowRays, entries [0, size()). Each light's queue grows as its
+/// rays come, to the most it has had in a round: a scene's many lights do not each keep room for every path.
 struct BufferedShadowRays {
   RayStream ray;
   std::vector<Color> light;
@@ -112,14 +113,16 @@ struct BufferedShadowRays {
   std::vector<std::uint8_t> blocked; // (connect's answers)
   std::size_t count = 0;
   std::size_t size() const { return count; }
-  void clear(std::size_t n)
+  void clear() { count = 0; }
+  void grow()
   {
-    count = 0;
-    if (ray.size() < n)
-      ray.resize(n), light.resize(n), slot.resize(n), cellFirst.resize(n), cellSize.resize(n), blocked.resize(n);
+    const std::size_t n = std::max<std::size_t>(64, 2 * count);
+    ray.resize(n), light.resize(n), slot.resize(n), cellFirst.resize(n), cellSize.resize(n), blocked.resize(n);
   }
   void push(const Ray& r, const Color& L, std::uint32_t s, LightBuffer::CellRange cell)
   {
+    if (count == ray.size()) [[unlikely]]
+      grow();
     ray.set(count, r);
     light[count] = L, slot[count] = s, cellFirst[count] = cell.first, cellSize[count] = cell.size;
     ++count;
@@ -286,13 +289,13 @@ struct Queues {
   ShadowRays shadows;
   std::vector<std::uint8_t> blocked;
   std::vector<BufferedShadowRays> buffered;
-  // Empties the shadow rays' queues (one for each of `buffers` light buffers), with room for `n` rays each.
+  // Empties the shadow rays' queues (one for each of `buffers` light buffers), the tree's with room for `n` rays.
   void clearShadows(std::size_t n, std::size_t buffers)
   {
     shadows.clear(n);
     buffered.resize(buffers);
     for (BufferedShadowRays& b : buffered)
-      b.clear(n);
+      b.clear();
   }
 };
 
