@@ -1137,17 +1137,6 @@ void RayStream::resize(std::size_t n)
     v->resize(n);
 }
 
-void RayStream::set(std::size_t i, const Ray& ray)
-{
-  ox[i] = ray.origin.x;
-  oy[i] = ray.origin.y;
-  oz[i] = ray.origin.z;
-  dx[i] = ray.direction.x;
-  dy[i] = ray.direction.y;
-  dz[i] = ray.direction.z;
-  tmax[i] = ray.tmax;
-}
-
 SphereList SphereList::from(std::span<const Sphere> spheres)
 {
   SphereList list;

@@ -48,8 +48,14 @@ struct RayStream {
   std::size_t size() const { return ox.size(); }
   /// Makes room for `n` rays: the first min(n, size()) keep their values, the others are unspecified.
   void resize(std::size_t n);
-  /// Ray i, from `ray` (whose tmin must be 0).
-  void set(std::size_t i, const Ray& ray);
+  /// Ray i, from `ray` (whose tmin must be 0). (Inline: every queue's push calls it. Defined in the .cpp, only
+  /// link-time optimisation could inline it, and its inliner once left it a call in chapter 16's shade.)
+  void set(std::size_t i, const Ray& ray)
+  {
+    ox[i] = ray.origin.x, oy[i] = ray.origin.y, oz[i] = ray.origin.z;
+    dx[i] = ray.direction.x, dy[i] = ray.direction.y, dz[i] = ray.direction.z;
+    tmax[i] = ray.tmax;
+  }
   /// Ray i as a Ray (tmin 0, time `time`).
   Ray get(std::size_t i, Real time = 0) const
   {

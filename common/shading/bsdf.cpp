@@ -128,8 +128,6 @@ std::optional<BsdfSample> dielectricSample(const Color& tint, Real eta, const Ve
 // [dielectric]
 
 // [phong]
-Real phongExponent(Real roughness) { return 2 / (roughness * roughness) - 2; }
-
 Color phongEval(const Color& albedo, Real exponent, const Vec3& wo, const Vec3& wi)
 {
   if (!(exponent <= kMaxPhongExponent) || !sameSide(wo, wi))

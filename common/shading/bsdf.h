@@ -95,7 +95,9 @@ std::optional<BsdfSample> dielectricSample(const Color& tint, Real eta, const Ve
 /// The Phong exponent n for a roughness r in (0, 1]: n = 2/r² − 2, so r = 1 is Lambertian (n = 0) and the
 /// lobe narrows as r → 0 (the mapping makes the lobe's width grow about linearly with r). Infinite below
 /// r ≈ 10⁻¹⁵⁴ in double (r² is 0), which the Phong functions below take as the mirror (kMaxPhongExponent).
-Real phongExponent(Real roughness);
+/// (Inline: chapter 16's shade asks it of every glossy path, and defined in the .cpp only link-time optimisation
+/// could inline it.)
+inline Real phongExponent(Real roughness) { return 2 / (roughness * roughness) - 2; }
 
 /// Below this roughness a glossy material is the mirror its lobe narrows to, as a metal is below kMinGgxAlpha (the
 /// same 10⁻³). The lobe is then about r = 10⁻³ radians wide, less than a pixel of the chapters' images spans (3·10⁻³
