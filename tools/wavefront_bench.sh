@@ -17,6 +17,19 @@ for program in "$ch8" "$ch16"; do
   [ -x "$program" ] || { echo "wavefront_bench: no $program (cmake --build --preset release)" >&2; exit 2; }
 done
 [ -x /usr/bin/time ] || { echo "wavefront_bench: needs /usr/bin/time (Debian's package time)" >&2; exit 2; }
+# The test preset configures the same folder as the release one, without link-time optimisation, and chapter 16
+# then runs some per cent slower: say which build this is, and warn where it is not the release build.
+cache="$build/CMakeCache.txt"
+lto=$(sed -n 's/^RAYLIFE_LTO:BOOL=//p' "$cache" 2> /dev/null || true)
+type=$(sed -n 's/^CMAKE_BUILD_TYPE:STRING=//p' "$cache" 2> /dev/null || true)
+if [ "$lto" != ON ] || [ "$type" != Release ]; then
+  echo "wavefront_bench: $build is not the release build (${type:-unknown type}, link-time optimisation" \
+    "${lto:-unknown}): its figures are not those of docs/benchmarks.md (cmake --preset release, then" \
+    "cmake --build --preset release)" >&2
+elif [ "$cache" -nt "$ch16" ] || [ "$cache" -nt "$ch8" ]; then
+  echo "wavefront_bench: $build was configured again after its programs were built (cmake --build --preset" \
+    "release)" >&2
+fi
 
 # The one-thread runs all go to one core, where taskset is there: the cores of a virtual machine need not be equally
 # fast (on the one docs/benchmarks.md was measured on, one took 1.3 times as long), and runs that land on either at
@@ -80,7 +93,7 @@ out=$(mktemp -d)
 times="$out/times"
 trap 'rm -rf "$out"' EXIT
 echo "Chapter 16 against chapter 8, one thread${pin[*]:+ (${pin[*]})}, the same image (CPU seconds, medians of $runs"
-echo "alternating runs):"
+echo "alternating runs; $build: ${type:-unknown type}, link-time optimisation ${lto:-unknown}):"
 echo
 echo "| scene | chapter 16 (s) | chapter 8 (s) | 16 / 8 (range) | chapter 16 (Mrays/s) | chapter 8 (Mrays/s) |"
 echo "| --- | --- | --- | --- | --- | --- |"
