@@ -412,6 +412,11 @@ HWY_INLINE V dotLanes(const Vec3Lanes& a, const Vec3Lanes& b) // glm::dot: (x + 
 {
   return hn::Add(hn::Add(hn::Mul(a.x, b.x), hn::Mul(a.y, b.y)), hn::Mul(a.z, b.z));
 }
+// w in the frame (s, t, n): Frame::toLocal, (w·s, w·t, w·n).
+HWY_INLINE Vec3Lanes toLocalLanes(const Vec3Lanes& w, const Tangents& f, V nx, V ny, V nz)
+{
+  return {dotLanes(w, {f.sx, f.sy, f.sz}), dotLanes(w, {f.tx, f.ty, f.tz}), dotLanes(w, {nx, ny, nz})};
+}
 HWY_INLINE Vec3Lanes crossLanes(const Vec3Lanes& a, const Vec3Lanes& b) // glm::cross
 {
   return {hn::Sub(hn::Mul(a.y, b.z), hn::Mul(b.y, a.z)), hn::Sub(hn::Mul(a.z, b.x), hn::Mul(b.z, a.x)),
@@ -859,8 +864,7 @@ void GlossyBounces(const GlossyBounceInput& glossy, std::size_t count, const Glo
     const V nx = load(in.nx), ny = load(in.ny), nz = load(in.nz), exponent = load(glossy.exponent);
     const Tangents f = tangentsAround(d, nx, ny, nz);
     const Vec3Lanes minusD{hn::Neg(load(in.dx)), hn::Neg(load(in.dy)), hn::Neg(load(in.dz))};
-    const Vec3Lanes wo{dotLanes(minusD, {f.sx, f.sy, f.sz}), dotLanes(minusD, {f.tx, f.ty, f.tz}),
-                       dotLanes(minusD, {nx, ny, nz})};
+    const Vec3Lanes wo = toLocalLanes(minusD, f, nx, ny, nz);
     // samplePhongLobe: cosα = (1 − u₁)^(1/(n + 1)), sinα, and the azimuth 2πu₂, around r = reflectLocal(wo).
     const V cosAlpha = powLanes(d, hn::Sub(one, load(in.u1)), hn::Div(one, hn::Add(exponent, one)), hn::Eq(one, one));
     const V sinAlpha = hn::Sqrt(maxZero(d, hn::Sub(one, hn::Mul(cosAlpha, cosAlpha))));
@@ -885,6 +889,62 @@ void GlossyBounces(const GlossyBounceInput& glossy, std::size_t count, const Glo
   }
 }
 /// [glossyBounces]
+
+/// [specularBounces]
+void SpecularBounces(const SpecularBounceInput& in, std::size_t count, const DiffuseBounceOutput& out)
+{
+  const D d;
+  const std::size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d), one = hn::Set(d, Real(1));
+  for (std::size_t i = 0; i < count; i += lanes) {
+    const std::size_t n = std::min(lanes, count - i);
+    auto load = [&](std::span<const Real> v) { return loadLanes(d, v.data(), i, n); };
+    const V nx = load(in.nx), ny = load(in.ny), nz = load(in.nz), eta = load(in.eta);
+    const Tangents f = tangentsAround(d, nx, ny, nz);
+    const Vec3Lanes minusD{hn::Neg(load(in.dx)), hn::Neg(load(in.dy)), hn::Neg(load(in.dz))};
+    const Vec3Lanes wo = toLocalLanes(minusD, f, nx, ny, nz);
+    // From inside (wo.z < 0) the light leaves the glass: η becomes 1/η, and the cosine and the normal turn over.
+    const M inside = hn::Lt(wo.z, zero);
+    const V etaSide = hn::IfThenElse(inside, hn::Div(one, eta), eta);
+    // cosTransmittedSquared: ((η − 1)(η + 1) + cos²θi)/η², ≤ 0 for total internal reflection.
+    auto cos2T = [&](V cosI) {
+      return hn::Div(hn::Add(hn::Mul(hn::Sub(etaSide, one), hn::Add(etaSide, one)), hn::Mul(cosI, cosI)),
+                     hn::Mul(etaSide, etaSide));
+    };
+    // fresnelDielectric(wo.z, η), of the cosine clamped to [−1, 1]; 1 for a mirror (it always reflects).
+    const V clamped = hn::Min(hn::Max(wo.z, hn::Set(d, Real(-1))), one);
+    const V cosI = hn::IfThenElse(inside, hn::Neg(clamped), clamped);
+    const V c2 = cos2T(cosI);
+    const V cosT = hn::Sqrt(maxZero(d, c2));
+    const V rParallel = hn::Div(hn::Sub(hn::Mul(etaSide, cosI), cosT), hn::Add(hn::Mul(etaSide, cosI), cosT));
+    const V rPerpendicular = hn::Div(hn::Sub(cosI, hn::Mul(etaSide, cosT)), hn::Add(cosI, hn::Mul(etaSide, cosT)));
+    const V fresnel = hn::Div(hn::Add(hn::Mul(rParallel, rParallel), hn::Mul(rPerpendicular, rPerpendicular)),
+                              hn::Set(d, Real(2)));
+    const V F = hn::IfThenElse(hn::Or(hn::Eq(eta, zero), hn::Le(c2, zero)), one, fresnel);
+    // Reflection with probability F: reflectLocal(wo).
+    const M reflect = hn::Lt(load(in.uChoice), F);
+    // refract(wo, (0, 0, 1), η) (its cosine wo.z, not clamped): −wo/η + (cosθi/η − cosθt)·n on wo's side, made unit
+    // as glm::normalize makes it, v·(1/√(v·v)).
+    const V cosIr = hn::Abs(wo.z);
+    const V c2r = cos2T(cosIr);
+    const V k = hn::Sub(hn::Div(cosIr, etaSide), hn::Sqrt(maxZero(d, c2r)));
+    const V nSide = hn::IfThenElse(inside, hn::Set(d, Real(-0.0)), zero); // the facing normal's x and y: ±0
+    const Vec3Lanes v{hn::Add(hn::Div(hn::Neg(wo.x), etaSide), hn::Mul(k, nSide)),
+                      hn::Add(hn::Div(hn::Neg(wo.y), etaSide), hn::Mul(k, nSide)),
+                      hn::Add(hn::Div(hn::Neg(wo.z), etaSide), hn::Mul(k, hn::IfThenElse(inside, hn::Neg(one), one)))};
+    const V inv = hn::Div(one, hn::Sqrt(dotLanes(v, v)));
+    const Vec3Lanes wi{hn::IfThenElse(reflect, hn::Neg(wo.x), hn::Mul(v.x, inv)),
+                       hn::IfThenElse(reflect, hn::Neg(wo.y), hn::Mul(v.y, inv)),
+                       hn::IfThenElse(reflect, wo.z, hn::Mul(v.z, inv))};
+    // No sample where wo lies in the surface, or the refraction has none (or lies in the surface).
+    const M refracts = hn::And(hn::Gt(c2r, zero), hn::Ne(wi.z, zero));
+    const M valid = hn::And(hn::Ne(wo.z, zero), hn::Or(reflect, refracts));
+    storeWorld(d, wi.x, wi.y, wi.z, f, nx, ny, nz, out, i, n);
+    storeLanes(d, wi.z, out.cosTheta.data(), i, n);
+    storeLanes(d, hn::IfThenElseZero(valid, hn::IfThenElse(reflect, F, hn::Sub(one, F))), out.pdf.data(), i, n);
+  }
+}
+/// [specularBounces]
 
 /// [surfaceLightSamples]
 // (kGlossy: some surfaces may be glossy. Without, the loop is Lambert's alone, as lean as before glossy surfaces
@@ -1125,6 +1185,7 @@ HWY_EXPORT(ShadowRaysToTriangles);
 HWY_EXPORT(TriangleHitPoints);
 HWY_EXPORT(SurfaceLightSamples);
 HWY_EXPORT(GlossyBounces);
+HWY_EXPORT(SpecularBounces);
 HWY_EXPORT(PointLightRays);
 HWY_EXPORT(PinholeDirections);
 HWY_EXPORT(GuidedWarps);
@@ -1205,6 +1266,11 @@ void surfaceLightSamples(const SurfaceLightInput& in, std::size_t count, const S
 void glossyBounces(const GlossyBounceInput& in, std::size_t count, const GlossyBounceOutput& out)
 {
   HWY_DYNAMIC_DISPATCH(GlossyBounces)(in, count, out);
+}
+
+void specularBounces(const SpecularBounceInput& in, std::size_t count, const DiffuseBounceOutput& out)
+{
+  HWY_DYNAMIC_DISPATCH(SpecularBounces)(in, count, out);
 }
 
 void pointLightRays(const PointLightInput& in, std::size_t count, const PointLightOutput& out)

@@ -156,6 +156,26 @@ struct GlossyBounceOutput {
 /// direction below it): the path ends there.
 void glossyBounces(const GlossyBounceInput& in, std::size_t count, const GlossyBounceOutput& out);
 
+/// Mirror and glass hits stored by coordinate: the shading normal and the incoming ray's direction at each, the
+/// number that chooses between reflection and refraction, and each surface's index of refraction.
+struct SpecularBounceInput {
+  std::span<const Real> nx; ///< Unit shading normals: x.
+  std::span<const Real> ny; ///< Unit shading normals: y.
+  std::span<const Real> nz; ///< Unit shading normals: z.
+  std::span<const Real> dx; ///< Unit directions of the rays that arrived (towards the surface): x.
+  std::span<const Real> dy; ///< Unit directions of the rays that arrived (towards the surface): y.
+  std::span<const Real> dz; ///< Unit directions of the rays that arrived (towards the surface): z.
+  std::span<const Real> uChoice; ///< The number that chooses the lobe, in [0, 1) (a mirror's is not used).
+  std::span<const Real> eta; ///< A glass's index of refraction, η_t/η_i > 0 (Material::ior); 0 for a mirror.
+};
+
+/// For hits [0, count): mirrorSample(ρ, wo) where eta is 0, else dielectricSample(ρ, eta, wo, uChoice), in the frame
+/// Frame::fromNormal(n), wo = toLocal(−d), the direction turned to world space by toWorld: chapter 8's mirror and
+/// glass bounces, bit for bit. Every such sample's f is ρ · pdf / |cosθ| (its pdf is the chosen lobe's share, F or
+/// 1 − F, or 1 for a mirror), so out.pdf gives both. pdf is 0 where there is no sample (wo in the surface, or a
+/// refracted direction in it): the path ends there.
+void specularBounces(const SpecularBounceInput& in, std::size_t count, const DiffuseBounceOutput& out);
+
 /// Rays that hit spheres, stored by coordinate: each ray, its hit's t and the sphere.
 struct SphereHitInput {
   std::span<const Real> ox; ///< The rays' origins: x.

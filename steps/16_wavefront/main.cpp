@@ -276,10 +276,11 @@ struct Queues {
   PointLightColumns pointLights;    // and towards point lights
   TriangleLightColumns triangleLights; // and towards triangles
   // shade: the paths grouped by material (those shaded in the lanes: the diffuse ones, then the glossy ones; the
-  // others), and which go on.
-  std::vector<std::uint32_t> inLanes, glossy, other, grouped;
+  // mirrors and glass; the others), and which go on.
+  std::vector<std::uint32_t> inLanes, glossy, specular, other, grouped;
   std::vector<std::uint8_t> goesOn;
-  // shade's diffuse bounces, then its glossy ones, by coordinate (the stream kernels' input and output).
+  // shade's diffuse bounces, then its glossy ones, then its mirror and glass ones, by coordinate (the stream
+  // kernels' input and output; `exponent` holds a glossy surface's Phong exponent, a glass's index of refraction).
   std::vector<Real> nx, ny, nz, dx, dy, dz, u1, u2, exponent, wx, wy, wz, cosTheta, pdf, fScale;
   // shade's diffuse and glossy hits' points and the light guide's cell of each (guideCells).
   std::vector<Real> px, py, pz;
@@ -577,8 +578,8 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   const std::size_t n = paths.size();
   auto material = [&](std::uint32_t i) -> const Material& { return scene.materials[std::size_t(q.hit[i].material)]; };
   // Misses and emission first; then which paths shade, grouped: the diffuse ones, the glossy ones (but a lobe so
-  // narrow that phongSample takes it for a mirror), then the rest by type.
-  q.inLanes.clear(), q.glossy.clear(), q.other.clear();
+  // narrow that phongSample takes it for a mirror), the mirrors and glass, then the rest by type.
+  q.inLanes.clear(), q.glossy.clear(), q.specular.clear(), q.other.clear();
   for (std::uint32_t i = 0; i < n; ++i) {
     Color& L = out[paths.slot[i]];
     if (!q.found[i]) { // the ray left the scene: the background or the environment map, found only by BSDF
@@ -600,6 +601,8 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
       q.inLanes.push_back(i);
     else if (m.type == MaterialType::Glossy && phongExponent(m.roughness) <= kMaxPhongExponent)
       q.glossy.push_back(i);
+    else if (m.type == MaterialType::Mirror || m.type == MaterialType::Glass)
+      q.specular.push_back(i);
     else
       q.other.push_back(i);
   }
@@ -744,11 +747,11 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   // The diffuse and the glossy paths (entries [0, nd) and [nd, nb) of the columns below): light samples one by one
   // (each path's light and direction differ), then every bounce at once, one path per lane (diffuseBounces:
   // lambertianSample and the frame; glossyBounces: phongSample; bit for bit).
-  const std::size_t nd = q.inLanes.size(), nb = nd + q.glossy.size();
+  const std::size_t nd = q.inLanes.size(), nb = nd + q.glossy.size(), ns = nb + q.specular.size();
   q.inLanes.insert(q.inLanes.end(), q.glossy.begin(), q.glossy.end());
   for (std::vector<Real>* v : {&q.nx, &q.ny, &q.nz, &q.dx, &q.dy, &q.dz, &q.u1, &q.u2, &q.exponent, &q.wx, &q.wy,
                                &q.wz, &q.cosTheta, &q.pdf, &q.fScale, &q.px, &q.py, &q.pz})
-    atLeast(*v, nb);
+    atLeast(*v, ns);
   atLeast(q.cell, nb);
   for (std::size_t k = 0; k < nb; ++k) {
     const Vec3& p = q.hit[q.inLanes[k]].point;
@@ -855,11 +858,34 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
     continuePath(i, f * std::abs(q.cosTheta[k]) / q.pdf[k], false, q.pdf[k], Vec3(q.wx[k], q.wy[k], q.wz[k]));
   }
 
-  // The other materials, one path at a time, grouped by type.
+  // The mirrors and glass (entries [nb, ns)): no light sample (a delta lobe meets no light's direction), then every
+  // bounce at once (specularBounces: mirrorSample and dielectricSample, bit for bit), whose f is ρ·pdf/|cosθ|.
+  for (std::size_t k = nb; k < ns; ++k) {
+    const std::uint32_t i = q.specular[k - nb];
+    const Hit& hit = q.hit[i];
+    const Material& m = material(i);
+    q.u1[k] = paths.sampler[i].next1D();
+    paths.sampler[i].next2D(); // (drawn as in chapter 8, which neither lobe uses)
+    q.nx[k] = hit.normal.x, q.ny[k] = hit.normal.y, q.nz[k] = hit.normal.z;
+    q.dx[k] = paths.ray.dx[i], q.dy[k] = paths.ray.dy[i], q.dz[k] = paths.ray.dz[i];
+    q.exponent[k] = m.type == MaterialType::Glass ? m.ior : 0;
+  }
+  const auto specular = [nb](std::vector<Real>& v) { return std::span<Real>(v).subspan(nb); };
+  specularBounces({specular(q.nx), specular(q.ny), specular(q.nz), specular(q.dx), specular(q.dy), specular(q.dz),
+                   specular(q.u1), specular(q.exponent)},
+                  ns - nb, {specular(q.wx), specular(q.wy), specular(q.wz), specular(q.cosTheta), specular(q.pdf)});
+  for (std::size_t k = nb; k < ns; ++k) {
+    const std::uint32_t i = q.specular[k - nb];
+    if (!(q.pdf[k] > 0))
+      continue;
+    const Color f = material(i).color * q.pdf[k] / std::abs(q.cosTheta[k]);
+    continuePath(i, f * std::abs(q.cosTheta[k]) / q.pdf[k], true, q.pdf[k], Vec3(q.wx[k], q.wy[k], q.wz[k]));
+  }
+
+  // The other materials (metal, and glossy lobes too narrow for the lanes), one path at a time, grouped by type.
   for (const std::uint32_t i : q.other) {
     const Material& m = material(i);
-    if (m.type != MaterialType::Mirror && m.type != MaterialType::Glass)
-      sampleLight(i, m, st.lights.cellOf(q.hit[i].point), false);
+    sampleLight(i, m, st.lights.cellOf(q.hit[i].point), false);
     const Frame frame = Frame::fromNormal(q.hit[i].normal);
     const Vec3 wo = frame.toLocal(-Vec3(paths.ray.dx[i], paths.ray.dy[i], paths.ray.dz[i]));
     const Real uChoice = paths.sampler[i].next1D();

@@ -1,13 +1,12 @@
-// The stream kernels of chapter 16 (render/ray_stream.h) against the scalar code they vectorise, in every
-// instruction set this machine runs (each forced in turn), bit for bit: the nearest and any sphere of a flat list
-// against the loop over intersectSphere, the hit records against sphereSurfacePoint (and intersectTriangle,
-// trianglePoint and triangleNormal), the directions towards spherical lights against sampleSphereCone and
-// sphereConePdf, those towards triangle lights against sampleTriangleLight, the shadow rays against offsetRayOrigin
-// and intersectSphere or intersectTriangle, the diffuse and glossy bounces against lambertianSample and phongSample
-// in Frame, the light samples' worth against bsdfEval, bsdfPdf and the MIS weights, the light
-// guide's cells and warps against LightSampler::cellOf and SampleTree::sampleMixture, the pinhole camera's rays
-// against PrimaryRays::make; on random rays, hits and
-// numbers, with stream lengths that are not a multiple of the lanes.
+// The stream kernels of chapter 16 (render/ray_stream.h) against the scalar code they vectorise, in every instruction
+// set this machine runs (each forced in turn), bit for bit: the nearest and any sphere of a flat list against the loop
+// over intersectSphere, the hit records against sphereSurfacePoint (and intersectTriangle, trianglePoint and
+// triangleNormal), the directions towards spherical lights against sampleSphereCone and sphereConePdf, those towards
+// triangle lights against sampleTriangleLight, the shadow rays against offsetRayOrigin and intersectSphere or
+// intersectTriangle, the diffuse, glossy, mirror and glass bounces against lambertianSample, phongSample, mirrorSample
+// and dielectricSample in Frame, the light samples' worth against bsdfEval, bsdfPdf and the MIS weights, the light
+// guide's cells and warps against LightSampler::cellOf and SampleTree::sampleMixture, the pinhole camera's rays against
+// PrimaryRays::make; on random rays, hits and numbers, with stream lengths that are not a multiple of the lanes.
 #include "core/frame.h"
 #include "core/rng.h"
 #include "geometry/hit.h"
@@ -688,6 +687,59 @@ TEST_CASE("stream kernels: glossyBounces equals phongSample in Frame::fromNormal
     INFO(sampled << " of " << count << " bounces sampled");
     CHECK(sampled > count / 2);
     CHECK(sampled < count);
+    CHECK(wrong == 0);
+  });
+}
+
+TEST_CASE("stream kernels: specularBounces equals mirrorSample and dielectricSample in Frame::fromNormal, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    const std::size_t count = 20021;
+    Pcg32 rng(10, 15);
+    auto u = [&] { return Real(rng.nextUint()) * Real(0x1p-32); };
+    std::vector<Real> nx(count), ny(count), nz(count), dx(count), dy(count), dz(count), uChoice(count), eta(count);
+    for (std::size_t i = 0; i < count; ++i) {
+      // Some arrive in the surface (wo.z = 0: no sample); half from inside the glass (wo.z < 0), where grazing rays
+      // are reflected whole; mirrors (η 0), glass of index 1 (no bend), and choices at 0. Some normals along z, as on
+      // a box's walls, with directions in the yz plane (wo.x is then ±0).
+      const Vec3 r = randomDirection(rng);
+      const bool plane = i % 13 == 0;
+      const Vec3 n = plane ? Vec3(0, 0, i % 2 == 0 ? 1 : -1) : randomDirection(rng);
+      const Vec3 d = i % 97 == 0 ? Frame::fromNormal(n).s : plane ? glm::normalize(Vec3(0, r.y, r.z)) : r;
+      eta[i] = i % 5 == 0 ? 0 : i % 11 == 0 ? 1 : i % 3 == 0 ? Real(2.4) : Real(1.5);
+      nx[i] = n.x, ny[i] = n.y, nz[i] = n.z, dx[i] = d.x, dy[i] = d.y, dz[i] = d.z;
+      uChoice[i] = i % 31 == 0 ? 0 : u();
+    }
+    std::vector<Real> wx(count), wy(count), wz(count), cosTheta(count), pdf(count);
+    specularBounces({nx, ny, nz, dx, dy, dz, uChoice, eta}, count, {wx, wy, wz, cosTheta, pdf});
+    std::size_t wrong = 0, sampled = 0, reflected = 0, refracted = 0, whole = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Frame frame = Frame::fromNormal(Vec3(nx[i], ny[i], nz[i]));
+      const Vec3 wo = frame.toLocal(-Vec3(dx[i], dy[i], dz[i]));
+      Material m;
+      m.type = eta[i] == 0 ? MaterialType::Mirror : MaterialType::Glass;
+      m.ior = eta[i] == 0 ? Real(1.5) : eta[i], m.color = Color(Real(0.9), Real(0.5), Real(0.25));
+      const std::optional<BsdfSample> bs = bsdfSample(m, wo, Vec2(u(), u()), uChoice[i]);
+      sampled += bs.has_value();
+      if (bs.has_value() != (pdf[i] > 0)) {
+        ++wrong;
+        continue;
+      }
+      if (!bs)
+        continue;
+      reflected += bs->wi.z * wo.z > 0, refracted += bs->wi.z * wo.z < 0, whole += eta[i] > 0 && bs->pdf == 1;
+      const Vec3 w = frame.toWorld(bs->wi);
+      const Color f = m.color * pdf[i] / std::abs(cosTheta[i]);
+      wrong += !bs->specular || !sameBits(pdf[i], bs->pdf) || !sameBits(cosTheta[i], bs->wi.z) ||
+               !sameBits(wx[i], w.x) || !sameBits(wy[i], w.y) || !sameBits(wz[i], w.z) || !sameBits(f.r, bs->f.r) ||
+               !sameBits(f.g, bs->f.g) || !sameBits(f.b, bs->f.b);
+    }
+    INFO(sampled << " of " << count << " bounces sampled: " << reflected << " reflected, " << refracted
+                 << " refracted, " << whole << " wholly reflected by glass");
+    CHECK(sampled < count);
+    CHECK(reflected > count / 4);
+    CHECK(refracted > count / 4);
+    CHECK(whole > count / 100);
     CHECK(wrong == 0);
   });
 }
