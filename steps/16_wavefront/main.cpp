@@ -68,13 +68,6 @@ struct Paths {
     }
     count = n;
   }
-  // Path `src` moves to place `dst` (dst ≤ src): how the paths that go on close up behind those that ended.
-  void move(std::size_t src, std::size_t dst)
-  {
-    ray.set(dst, ray.get(src));
-    time[dst] = time[src], beta[dst] = beta[src], sampler[dst] = sampler[src], specular[dst] = specular[src],
-    bsdfPdf[dst] = bsdfPdf[src], from[dst] = from[src], slot[dst] = slot[src];
-  }
 };
 /// [paths]
 
@@ -261,6 +254,7 @@ struct BlockSpheres {
 /// first has sized them).
 struct Queues {
   Paths paths;
+  Paths next; // shade: the paths that go on, side by side, for the next round (then swapped with `paths`)
   FilmColumns film; // generate: where on the film each camera ray goes
   // extend → shade: the nearest hit of every path's ray; found[i] says whether path i hit anything.
   std::vector<Hit> hit;
@@ -276,9 +270,8 @@ struct Queues {
   PointLightColumns pointLights;    // and towards point lights
   TriangleLightColumns triangleLights; // and towards triangles
   // shade: the paths grouped by material (those shaded in the lanes: the diffuse ones, then the glossy ones; the
-  // mirrors and glass; the others), and which go on.
+  // mirrors and glass; the others).
   std::vector<std::uint32_t> inLanes, glossy, specular, other, grouped;
-  std::vector<std::uint8_t> goesOn;
   // shade's diffuse bounces, then its glossy ones, then its mirror and glass ones, by coordinate (the stream
   // kernels' input and output; `exponent` holds a glossy surface's Phong exponent, a glass's index of refraction).
   std::vector<Real> nx, ny, nz, dx, dy, dz, u1, u2, exponent, wx, wy, wz, cosTheta, pdf, fScale;
@@ -569,8 +562,9 @@ void extend(const Stages& st, Queues& q, bool cameraRays)
 // Stage 3, shade: at every hit, what chapter 8's loop does at a vertex. Emission found by the BSDF's ray (weighted
 // against light sampling); a light sample, whose shadow ray goes to connect's queue with the light it would bring;
 // the BSDF sample that continues the path; Russian roulette. The paths are taken grouped by material: the diffuse
-// and the glossy ones' light samples and bounces together through the stream kernels, the others one by one. Paths
-// that end are dropped, and those that go on close up at the front of the wavefront.
+// and the glossy ones' light samples and bounces together through the stream kernels, and the mirrors' and glass's
+// bounces; the others (metal) one by one. Paths that end are dropped, and those that go on are written side by side
+// into the next round's wavefront.
 void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Color> out)
 {
   const Scene& scene = st.scene;
@@ -723,16 +717,17 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
     q.shadows.push(ray, light, paths.slot[i]);
   };
 
-  // What a path does after its BSDF sample: the throughput, Russian roulette, and the next ray (or its end).
-  q.goesOn.assign(n, 0);
+  // What a path does after its BSDF sample: the throughput, Russian roulette, and the next ray (or its end). A path
+  // that goes on is written to the next round's wavefront, after those that went on before it: so the paths close up
+  // as they go, with no pass of their own (stream compaction). Their order is the groups' (each path has its own
+  // numbers and its own pixel sample, so the order changes no path, and no pixel's sums).
+  Paths& next = q.next;
+  next.resize(n);
+  std::size_t kept = 0;
   auto continuePath = [&](std::uint32_t i, const Color& weight, bool specular, Real pdf, const Vec3& direction) {
-    Color& beta = paths.beta[i];
-    beta *= weight;
+    Color beta = paths.beta[i] * weight;
     if (beta == Color(0))
       return; // nothing more can reach the eye along this path
-    paths.specular[i] = specular;
-    paths.bsdfPdf[i] = pdf;
-    paths.from[i] = q.hit[i].point;
     // Russian roulette: go on with probability p, and divide by p so that the expectation is unchanged.
     if (bounce >= kRouletteMinBounces) {
       const Real p = rouletteSurvival(beta);
@@ -740,8 +735,11 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
         return;
       beta /= p;
     }
-    paths.ray.set(i, spawnRay(q.hit[i], direction));
-    q.goesOn[i] = 1;
+    next.ray.set(kept, spawnRay(q.hit[i], direction));
+    next.time[kept] = paths.time[i], next.beta[kept] = beta, next.sampler[kept] = paths.sampler[i];
+    next.specular[kept] = specular, next.bsdfPdf[kept] = pdf, next.from[kept] = q.hit[i].point;
+    next.slot[kept] = paths.slot[i];
+    ++kept;
   };
 
   // The diffuse and the glossy paths (entries [0, nd) and [nd, nb) of the columns below): light samples one by one
@@ -894,15 +892,8 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
       continuePath(i, bs->f * std::abs(bs->wi.z) / bs->pdf, bs->specular, bs->pdf, frame.toWorld(bs->wi));
   }
 
-  // The paths that go on close up at the front, in order.
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    if (q.goesOn[i]) {
-      if (kept != i)
-        paths.move(i, kept);
-      ++kept;
-    }
-  paths.resize(kept);
+  next.resize(kept);
+  std::swap(q.paths, q.next);
 }
 /// [shade]
 
