@@ -29,17 +29,34 @@ public:
     nextUint();
   }
 
+  /// The generator whose state and increment (odd) are these: what state() and increment() return, so that
+  /// fromState(g.state(), g.increment()) draws what g draws next. (Chapter 16 makes many at once.)
+  static constexpr Pcg32 fromState(std::uint64_t state, std::uint64_t increment)
+  {
+    Pcg32 g;
+    g.state_ = state, g.inc_ = increment;
+    return g;
+  }
+  /// The state: the next number's 64 bits before the output permutation.
+  constexpr std::uint64_t state() const { return state_; }
+  /// The increment of the linear congruential step: the stream, odd.
+  constexpr std::uint64_t increment() const { return inc_; }
+
+  /// The linear congruential step's multiplier: state ← state · kMultiplier + increment (mod 2⁶⁴).
+  static constexpr std::uint64_t kMultiplier = 6364136223846793005ULL;
+
   /// A uniformly distributed 32-bit integer.
   constexpr std::uint32_t nextUint()
   {
     const std::uint64_t old = state_;
-    state_ = old * 6364136223846793005ULL + inc_;
+    state_ = old * kMultiplier + inc_;
     const auto xorshifted = std::uint32_t(((old >> 18u) ^ old) >> 27u);
     const auto rot = std::uint32_t(old >> 59u);
     return (xorshifted >> rot) | (xorshifted << ((32u - rot) & 31u));
   }
 
 private:
+  constexpr Pcg32() : inc_(1) {}
   std::uint64_t state_ = 0;
   std::uint64_t inc_;
 };
@@ -54,6 +71,13 @@ public:
              mix64(sampleIndex ^ 0x5851f42d4c957f2dULL))
   {
   }
+
+  /// The sampler that draws from `rng` (Pcg32::fromState): the same as Sampler(seed, x, y, sampleIndex) where
+  /// `rng` is that sampler's generator().
+  explicit Sampler(const Pcg32& rng) : rng_(rng) {}
+
+  /// The generator the numbers come from, as it stands (the next number not yet drawn).
+  const Pcg32& generator() const { return rng_; }
 
   /// A uniform number in [0, 1): 24 random bits for float, 32 for double (never exactly 1).
   Real next1D()

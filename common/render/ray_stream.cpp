@@ -7,6 +7,7 @@
 #include <hwy/highway.h>
 
 #include "render/ray_stream.h"
+#include "core/rng.h"
 #include "shading/bsdf.h"
 #include "scene/light_sampling.h"
 
@@ -890,6 +891,64 @@ void GlossyBounces(const GlossyBounceInput& glossy, std::size_t count, const Glo
 }
 /// [glossyBounces]
 
+/// [pixelSamplers]
+using DU64 = hn::ScalableTag<std::uint64_t>;
+using VU64 = hn::Vec<DU64>;
+
+// The low 64 bits of a·b, lane by lane: one instruction with AVX-512 (and in the scalar target), else from the
+// 32-bit halves, aL·bL + ((aH·bL + aL·bH) << 32).
+HWY_INLINE VU64 mul64(VU64 a, VU64 b)
+{
+#if HWY_TARGET <= HWY_AVX3 || HWY_TARGET == HWY_SCALAR || HWY_TARGET == HWY_EMU128
+  return hn::Mul(a, b);
+#else
+  const hn::Repartition<std::uint32_t, DU64> d32;
+  auto low = [&](VU64 x, VU64 y) { return hn::MulEven(hn::BitCast(d32, x), hn::BitCast(d32, y)); };
+  const VU64 cross = hn::Add(low(hn::ShiftRight<32>(a), b), low(a, hn::ShiftRight<32>(b)));
+  return hn::Add(low(a, b), hn::ShiftLeft<32>(cross));
+#endif
+}
+
+// mix64 (rng.h), lane by lane.
+HWY_INLINE VU64 mix64Lanes(DU64 du, VU64 z)
+{
+  z = hn::Add(z, hn::Set(du, 0x9e3779b97f4a7c15ULL));
+  z = mul64(hn::Xor(z, hn::ShiftRight<30>(z)), hn::Set(du, 0xbf58476d1ce4e5b9ULL));
+  z = mul64(hn::Xor(z, hn::ShiftRight<27>(z)), hn::Set(du, 0x94d049bb133111ebULL));
+  return hn::Xor(z, hn::ShiftRight<31>(z));
+}
+
+void PixelSamplers(std::uint64_t seed, const PixelSampleColumns& in, std::size_t count, const GeneratorColumns& out)
+{
+  const DU64 du;
+  const hn::Rebind<std::uint32_t, DU64> du32;
+  const hn::Rebind<std::int32_t, DU64> di32;
+  const hn::Rebind<std::int64_t, DU64> di64;
+  const std::size_t lanes = hn::Lanes(du);
+  std::size_t i = 0;
+  for (; i + lanes <= count; i += lanes) {
+    // The pixel as std::uint32_t(x) | std::uint32_t(y) << 32, and the sample's index widened as std::uint64_t(s).
+    auto unsigned32 = [&](std::span<const std::int32_t> v) {
+      return hn::PromoteTo(du, hn::BitCast(du32, hn::LoadU(di32, v.data() + i)));
+    };
+    const VU64 pixel = hn::Or(unsigned32(in.x), hn::ShiftLeft<32>(unsigned32(in.y)));
+    const VU64 sample = hn::BitCast(du, hn::PromoteTo(di64, hn::LoadU(di32, in.sample.data() + i)));
+    // Sampler's seeding: Pcg32(mix64(seed ^ mix64(pixel)), mix64(sample ^ k)), whose constructor sets the increment
+    // 2·stream + 1, steps once from state 0 (to the increment), adds the seed and steps again.
+    const VU64 start = mix64Lanes(du, hn::Xor(hn::Set(du, seed), mix64Lanes(du, pixel)));
+    const VU64 stream = mix64Lanes(du, hn::Xor(sample, hn::Set(du, 0x5851f42d4c957f2dULL)));
+    const VU64 increment = hn::Or(hn::ShiftLeft<1>(stream), hn::Set(du, 1));
+    const VU64 state = hn::Add(mul64(hn::Add(increment, start), hn::Set(du, Pcg32::kMultiplier)), increment);
+    hn::StoreU(state, du, out.state.data() + i);
+    hn::StoreU(increment, du, out.increment.data() + i);
+  }
+  for (; i < count; ++i) { // (the last, short group: one at a time)
+    const Pcg32 g = Sampler(seed, in.x[i], in.y[i], std::uint64_t(in.sample[i])).generator();
+    out.state[i] = g.state(), out.increment[i] = g.increment();
+  }
+}
+/// [pixelSamplers]
+
 /// [specularBounces]
 void SpecularBounces(const SpecularBounceInput& in, std::size_t count, const DiffuseBounceOutput& out)
 {
@@ -1186,6 +1245,7 @@ HWY_EXPORT(TriangleHitPoints);
 HWY_EXPORT(SurfaceLightSamples);
 HWY_EXPORT(GlossyBounces);
 HWY_EXPORT(SpecularBounces);
+HWY_EXPORT(PixelSamplers);
 HWY_EXPORT(PointLightRays);
 HWY_EXPORT(PinholeDirections);
 HWY_EXPORT(GuidedWarps);
@@ -1281,6 +1341,11 @@ void pointLightRays(const PointLightInput& in, std::size_t count, const PointLig
 void pinholeDirections(const Camera& camera, const FilmInput& in, std::size_t count, const DirectionOutput& out)
 {
   HWY_DYNAMIC_DISPATCH(PinholeDirections)(camera, in, count, out);
+}
+
+void pixelSamplers(std::uint64_t seed, const PixelSampleColumns& in, std::size_t count, const GeneratorColumns& out)
+{
+  HWY_DYNAMIC_DISPATCH(PixelSamplers)(seed, in, count, out);
 }
 
 void shadowRaysToSpheres(const ShadowSpawnInput& in, std::size_t count, const ShadowSpawnOutput& out)

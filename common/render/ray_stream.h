@@ -520,6 +520,25 @@ struct DirectionOutput {
 /// bit: the pinhole camera's primary rays (their origin is the eye, their tmax +∞), as every chapter makes them.
 void pinholeDirections(const Camera& camera, const FilmInput& in, std::size_t count, const DirectionOutput& out);
 
+/// Pixel samples' keys stored by coordinate (PixelSampleKey's fields, render_loop.h).
+struct PixelSampleColumns {
+  std::span<const std::int32_t> x;      ///< The pixels' columns, ≥ 0.
+  std::span<const std::int32_t> y;      ///< Their rows, ≥ 0.
+  std::span<const std::int32_t> sample; ///< The samples' indices in the render, ≥ 0.
+};
+
+/// Random number generators stored by coordinate: each one's Pcg32::state() and Pcg32::increment().
+struct GeneratorColumns {
+  std::span<std::uint64_t> state;     ///< The states.
+  std::span<std::uint64_t> increment; ///< The increments (odd).
+};
+
+/// For samples [0, count): the generator of Sampler(seed, x, y, sample) as it starts, bit for bit, so that
+/// Sampler(Pcg32::fromState(state, increment)) draws what that sampler draws. The seeding's hashes (mix64) and the
+/// generator's first two steps run in lanes of 64-bit integers (with AVX-512 one multiplication a product, with
+/// the other instruction sets three of 32 bits): a wavefront's camera rays' numbers, made at once.
+void pixelSamplers(std::uint64_t seed, const PixelSampleColumns& in, std::size_t count, const GeneratorColumns& out);
+
 /// An instruction set the kernels are compiled for and this CPU runs.
 struct SimdTarget {
   std::int64_t id = 0; ///< Highway's bit for it (hwy::Targets).

@@ -224,10 +224,10 @@ struct PixelOffsetParts {
   return parts.strata == 1 ? parts.numerator : parts.numerator / parts.strata;
 }
 
-/// A pixel sample of a camera without a lens, made in two halves (PrimaryRays::pinholeSample): its random numbers
-/// and time here, its ray's direction later (pinholeDirections in render/ray_stream.h, many at once).
+/// A pixel sample of a camera without a lens, made in two halves (PrimaryRays::pinholeSample): where in its pixel
+/// its ray goes and its time here, its ray's direction later (pinholeDirections in render/ray_stream.h, many at
+/// once).
 struct PinholeSample {
-  Sampler sampler;         ///< The sample's random numbers from here on: the estimator's.
   PixelOffsetParts offset; ///< Where in its pixel its ray goes.
   Real time = 0;           ///< The ray's time in [0, 1) (0 in a still scene).
 };
@@ -265,14 +265,16 @@ public:
   /// Whether the rays come through a pinhole (no point on a lens is drawn): then pinholeSample and
   /// Camera::ray(film) make what make does.
   bool pinhole() const { return !lens_; }
-  /// make(key)'s first half, where pinhole() holds: the sampler, having drawn what the ray takes, where in the pixel
-  /// the ray goes, and its time. Its ray is camera().ray(film) with film = (x, y) + offset.numerator / offset.strata.
-  PinholeSample pinholeSample(const PixelSampleKey& key) const
+  /// make(key)'s first half, where pinhole() holds: where in the pixel the ray goes, and its time, drawn from
+  /// `sampler`, the sample's Sampler(seed(), key.x, key.y, key.sample) as made (or one that draws the same numbers:
+  /// pixelSamplers in render/ray_stream.h makes many at once), which then holds the estimator's numbers. The ray is
+  /// camera().ray(film) with film = (x, y) + offset.numerator / offset.strata.
+  PinholeSample pinholeSample(const PixelSampleKey& key, Sampler& sampler) const
   {
-    PinholeSample p{Sampler(seed_, key.x, key.y, std::uint64_t(key.sample)), {}, 0};
-    p.offset = pixelOffsetParts(pixelSampling_, key.sample, strata_, p.sampler, PixelSequence(seed_, key.x, key.y));
+    PinholeSample p{pixelOffsetParts(pixelSampling_, key.sample, strata_, sampler, PixelSequence(seed_, key.x, key.y)),
+                    0};
     if (motion_)
-      p.time = p.sampler.next1D();
+      p.time = sampler.next1D();
     return p;
   }
   /// The camera the rays come from.

@@ -123,14 +123,18 @@ struct BufferedShadowRays {
 };
 
 /// The camera rays' places on the film by coordinate: generate's input to pinholeDirections (and extend's, to find
-/// each camera ray's block of pixels), and the pinhole camera they come from (null for rays through a lens).
+/// each camera ray's block of pixels), and the pinhole camera they come from (null for rays through a lens); and
+/// generate's input to pixelSamplers, the keys, and its output, the samples' generators.
 struct FilmColumns {
   const Camera* camera = nullptr;
   std::vector<Real> x, y, offsetX, offsetY, strata;
+  std::vector<std::int32_t> keyX, keyY, keySample;
+  std::vector<std::uint64_t> state, increment;
   void resize(std::size_t n)
   {
     for (std::vector<Real>* v : {&x, &y, &offsetX, &offsetY, &strata})
       atLeast(*v, n);
+    atLeast(keyX, n), atLeast(keyY, n), atLeast(keySample, n), atLeast(state, n), atLeast(increment, n);
   }
 };
 
@@ -329,7 +333,8 @@ struct Stages {
 
 /// [generate]
 // Stage 1, generate: each pixel sample's camera ray and random numbers, made as every chapter makes them. Through a
-// pinhole, each sample's numbers first (where in its pixel its ray goes), then every ray's direction at once.
+// pinhole, every sample's generator at once, then each one's numbers (where in its pixel its ray goes), then every
+// ray's direction at once.
 void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, Paths& paths, FilmColumns& film)
 {
   const std::size_t n = keys.size();
@@ -352,9 +357,12 @@ void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, 
     return;
   }
   film.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+    film.keyX[i] = keys[i].x, film.keyY[i] = keys[i].y, film.keySample[i] = keys[i].sample;
+  pixelSamplers(primary.seed(), {film.keyX, film.keyY, film.keySample}, n, {film.state, film.increment});
   for (std::size_t i = 0; i < n; ++i) {
-    const PinholeSample p = primary.pinholeSample(keys[i]);
-    paths.sampler[i] = p.sampler;
+    Sampler& sampler = paths.sampler[i] = Sampler(Pcg32::fromState(film.state[i], film.increment[i]));
+    const PinholeSample p = primary.pinholeSample(keys[i], sampler);
     paths.time[i] = p.time;
     film.x[i] = Real(keys[i].x), film.y[i] = Real(keys[i].y);
     film.offsetX[i] = p.offset.numerator.x, film.offsetY[i] = p.offset.numerator.y, film.strata[i] = p.offset.strata;

@@ -5,8 +5,9 @@
 // triangle lights against sampleTriangleLight, the shadow rays against offsetRayOrigin and intersectSphere or
 // intersectTriangle, the diffuse, glossy, mirror and glass bounces against lambertianSample, phongSample, mirrorSample
 // and dielectricSample in Frame, the light samples' worth against bsdfEval, bsdfPdf and the MIS weights, the light
-// guide's cells and warps against LightSampler::cellOf and SampleTree::sampleMixture, the pinhole camera's rays against
-// PrimaryRays::make; on random rays, hits and numbers, with stream lengths that are not a multiple of the lanes.
+// guide's cells and warps against LightSampler::cellOf and SampleTree::sampleMixture, the samples' generators against
+// Sampler, the pinhole camera's rays against PrimaryRays::make; on random rays, hits and numbers, with stream lengths
+// that are not a multiple of the lanes.
 #include "core/frame.h"
 #include "core/rng.h"
 #include "geometry/hit.h"
@@ -939,6 +940,37 @@ TEST_CASE("stream kernels: guideCells equals LightSampler::cellOf, bit for bit, 
   });
 }
 
+TEST_CASE("stream kernels: pixelSamplers starts every Sampler(seed, x, y, sample)'s numbers, bit for bit")
+{
+  forEachTarget([](const SimdTarget&) {
+    // Pixels and sample indices of every size (the largest an int holds among them), seeds of every size, and
+    // counts that leave a short last group.
+    Pcg32 rng(12, 3);
+    for (const std::size_t count : {std::size_t(1), std::size_t(7), std::size_t(1000), std::size_t(4099)}) {
+      const std::uint64_t seed = std::uint64_t(rng.nextUint()) << 32 | rng.nextUint();
+      std::vector<std::int32_t> x(count), y(count), sample(count);
+      for (std::size_t i = 0; i < count; ++i) {
+        auto any = [&](std::uint32_t most) { return std::int32_t(rng.nextUint() % most); };
+        x[i] = i % 11 == 0 ? std::numeric_limits<std::int32_t>::max() : any(i % 2 == 0 ? 4096 : 1u << 31);
+        y[i] = i % 13 == 0 ? 0 : any(i % 3 == 0 ? 4096 : 1u << 31);
+        sample[i] = i % 17 == 0 ? std::numeric_limits<std::int32_t>::max() : any(i % 5 == 0 ? 64 : 1u << 31);
+      }
+      std::vector<std::uint64_t> state(count), increment(count);
+      pixelSamplers(seed, {x, y, sample}, count, {state, increment});
+      std::size_t wrong = 0;
+      for (std::size_t i = 0; i < count; ++i) {
+        Sampler expected(seed, x[i], y[i], std::uint64_t(sample[i]));
+        Sampler made(Pcg32::fromState(state[i], increment[i]));
+        wrong += state[i] != expected.generator().state() || increment[i] != expected.generator().increment();
+        for (int k = 0; k < 4; ++k) // (and the two draw the same numbers)
+          wrong += !sameBits(made.next1D(), expected.next1D());
+      }
+      INFO(count << " samples");
+      CHECK(wrong == 0);
+    }
+  });
+}
+
 TEST_CASE("stream kernels: pinholeSample and pinholeDirections make PrimaryRays::make's camera rays, bit for bit")
 {
   // Cameras of several shapes and orientations; samples at the centre, jittered in strata (a square count, and one
@@ -982,10 +1014,12 @@ TEST_CASE("stream kernels: pinholeSample and pinholeDirections make PrimaryRays:
         std::vector<Real> x(count), y(count), offsetX(count), offsetY(count), strata(count), dx(count), dy(count),
             dz(count);
         std::vector<PinholeSample> samples;
+        std::vector<Sampler> samplers;
         for (std::size_t i = 0; i < count; ++i) {
           keys[i] = {int(rng.nextUint() % std::uint32_t(c.width)), int(rng.nextUint() % std::uint32_t(c.height)),
                      int(rng.nextUint() % 40)};
-          samples.push_back(primary.pinholeSample(keys[i]));
+          samplers.emplace_back(primary.seed(), keys[i].x, keys[i].y, std::uint64_t(keys[i].sample));
+          samples.push_back(primary.pinholeSample(keys[i], samplers.back()));
           x[i] = Real(keys[i].x), y[i] = Real(keys[i].y);
           offsetX[i] = samples[i].offset.numerator.x, offsetY[i] = samples[i].offset.numerator.y;
           strata[i] = samples[i].offset.strata;
@@ -1001,7 +1035,7 @@ TEST_CASE("stream kernels: pinholeSample and pinholeDirections make PrimaryRays:
                    !sameBits(samples[i].time, r.time);
           // The two samplers go on with the same numbers.
           for (int k = 0; k < 3; ++k)
-            wrong += !sameBits(samples[i].sampler.next1D(), expected.sampler.next1D());
+            wrong += !sameBits(samplers[i].next1D(), expected.sampler.next1D());
         }
         INFO("camera " << c.width << "x" << c.height << ", " << stratified << " samples in strata");
         CHECK(wrong == 0);
