@@ -332,9 +332,9 @@ struct Stages {
 };
 
 /// [generate]
-// Stage 1, generate: each pixel sample's camera ray and random numbers, made as every chapter makes them. Through a
-// pinhole, every sample's generator at once, then each one's numbers (where in its pixel its ray goes), then every
-// ray's direction at once.
+// Stage 1, generate: each pixel sample's camera ray and random numbers, made as every chapter makes them: every
+// sample's generator at once, then each one's numbers (where in its pixel its ray goes, and through a lens its ray),
+// then through a pinhole every ray's direction at once.
 void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, Paths& paths, FilmColumns& film)
 {
   const std::size_t n = keys.size();
@@ -347,19 +347,20 @@ void generate(const PrimaryRays& primary, std::span<const PixelSampleKey> keys, 
     paths.slot[i] = std::uint32_t(i);
   }
   film.camera = primary.pinhole() ? &primary.camera() : nullptr;
-  if (!primary.pinhole()) { // (a lens: one ray at a time)
-    for (std::size_t i = 0; i < n; ++i) {
-      const PrimarySample p = primary.make(keys[i]);
-      paths.ray.set(i, p.ray);
-      paths.time[i] = p.ray.time;
-      paths.sampler[i] = p.sampler;
-    }
-    return;
-  }
   film.resize(n);
   for (std::size_t i = 0; i < n; ++i)
     film.keyX[i] = keys[i].x, film.keyY[i] = keys[i].y, film.keySample[i] = keys[i].sample;
   pixelSamplers(primary.seed(), {film.keyX, film.keyY, film.keySample}, n, {film.state, film.increment});
+  if (!primary.pinhole()) { // (a lens: one ray at a time)
+    for (std::size_t i = 0; i < n; ++i) {
+      const PixelSampleKey& key = keys[i];
+      Sampler& sampler = paths.sampler[i] = Sampler(Pcg32::fromState(film.state[i], film.increment[i]));
+      const Ray ray = primary.ray(key.x, key.y, key.sample, sampler, PixelSequence(primary.seed(), key.x, key.y));
+      paths.ray.set(i, ray);
+      paths.time[i] = ray.time;
+    }
+    return;
+  }
   for (std::size_t i = 0; i < n; ++i) {
     Sampler& sampler = paths.sampler[i] = Sampler(Pcg32::fromState(film.state[i], film.increment[i]));
     const PinholeSample p = primary.pinholeSample(keys[i], sampler);
