@@ -24,6 +24,7 @@
 //
 // The default scene is scenes/random_spheres.json. Times are the thread's CPU time (best of R runs), which a shared
 // machine disturbs less than wall-clock time; still, compare ratios measured in one run.
+#include "bench_build.h"
 #include "render/heat_map.h"
 #include "render/image_io.h"
 #include "core/frame.h"
@@ -375,6 +376,8 @@ int main(int argc, char** argv)
     else
       return usage();
   }
+  if (mode != "heatmap")
+    reportBenchBuild("bvh_bench");
   try {
     const Scene scene = loadScene(scenePath);
     if (mode == "speed") {

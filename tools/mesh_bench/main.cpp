@@ -33,6 +33,7 @@
 //   default, Embree's for embree-…), then exit: a fixed amount of work for a profiler. The difference between two
 //   runs with different N is what the queries alone cost, e.g. instructions a query from
 //     valgrind --tool=callgrind --toggle-collect='*queryEight<false, false>*' mesh_bench M.ply --passes 5 bounce
+#include "bench_build.h"
 #include "core/rng.h"
 #include "core/sampling.h"
 #include "core/frame.h"
@@ -282,6 +283,7 @@ int main(int argc, char** argv)
                          "[--embree-robust] [--check] [--passes N camera|bounce|embree-camera|embree-bounce]\n");
     return 2;
   }
+  reportBenchBuild("mesh_bench");
   bool embree = false; // Embree's queries measured too
 #if RAYLIFE_EMBREE
   embree = o.embree;
