@@ -866,7 +866,8 @@ void shade(const Stages& st, int bounce, int maxDepth, Queues& q, std::span<Colo
   }
 
   // The mirrors and glass (entries [nb, ns)): no light sample (a delta lobe meets no light's direction), then every
-  // bounce at once (specularBounces: mirrorSample and dielectricSample, bit for bit), whose f is ρ·pdf/|cosθ|.
+  // bounce at once (specularBounces: mirrorSample and dielectricSample, bit for bit), whose f is ρ·pdf/|cosθ|. (The
+  // weight is then worked out as chapter 8 works it out, f·|cosθ|/pdf, not taken as ρ: the same bits.)
   for (std::size_t k = nb; k < ns; ++k) {
     const std::uint32_t i = q.specular[k - nb];
     const Hit& hit = q.hit[i];
