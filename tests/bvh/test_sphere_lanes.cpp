@@ -153,6 +153,34 @@ TEST_CASE("lanes: NaN and infinite rays - empty lanes - empty lists - miss as th
   }
 }
 
+TEST_CASE("lanes: a ray exactly tangent to a sphere meets it, and a hit exactly at tmax is none, as in the loop")
+{
+  // One sphere of radius 1 at (0, 0, -5), its group's other lanes empty. A ray down -z from (1, 0, 0) touches it at
+  // t = 5 exactly (discriminant 0: the lanes' early exit must not take that for a miss); one from the origin meets
+  // it at t = 4 exactly, which counts for a ray ending just beyond and not for one ending there ([tmin, tmax)).
+  // Random rays meet neither tie.
+  const std::vector<Sphere> spheres = {Sphere{Vec3(0, 0, -5), 1, 0}};
+  const std::vector<SphereGroup> groups = groupSpheres(spheres);
+  for (const LaneTest test : laneTests()) {
+    INFO("lane test: " << name(test));
+    const Ray tangent{Vec3(1, 0, 0), Vec3(0, 0, -1)};
+    const std::optional<Reference> expected = bruteForce(spheres, tangent);
+    REQUIRE(expected);
+    CHECK(expected->t == 5);
+    const std::optional<SphereHit> got = nearestInGroups(groups, tangent, test);
+    REQUIRE(got);
+    CHECK(sameBits(got->t, expected->t));
+    CHECK(anyInGroups(groups, tangent, test));
+    for (const Real tmax : {Real(4), std::nextafter(Real(4), kInfinity)}) {
+      const Ray ray{Vec3(0), Vec3(0, 0, -1), 0, tmax};
+      const bool meets = tmax > 4;
+      CHECK(bruteForce(spheres, ray).has_value() == meets);
+      CHECK(nearestInGroups(groups, ray, test).has_value() == meets);
+      CHECK(anyInGroups(groups, ray, test) == meets);
+    }
+  }
+}
+
 TEST_CASE("the scene's flat list goes through the lanes where the CPU tests four at once - with identical hits")
 {
   Random random(8);
